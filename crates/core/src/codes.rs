@@ -1,0 +1,345 @@
+//! 63-bit 3-D Morton and Hilbert keys (21 bits per axis).
+//!
+//! As in the virtualized paper (§III-A), the Hilbert index is derived from the Morton code:
+//! the Morton code is walked three bits (one octant) at a time through a state table that maps
+//! each octant to its Hilbert digit and to the orientation of the child cube. We walk two
+//! levels per step with a 64-entry table per state. The table is built once from the curve's
+//! base pattern (the 8-cell Gray-code order) and the orientation of each of its children.
+
+use std::sync::OnceLock;
+
+/// Bits per axis of the keys.
+pub const KEY_BITS: u32 = 21;
+/// Cells per axis.
+pub const KEY_CELLS: u64 = 1 << KEY_BITS;
+
+/// Spreads the low 21 bits of `v` so that bit i lands at bit 3i.
+#[inline]
+pub fn spread3(v: u32) -> u64 {
+    let mut x = (v as u64) & 0x1f_ffff;
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
+}
+
+/// Inverse of [`spread3`].
+#[inline]
+pub fn compact3(v: u64) -> u32 {
+    let mut x = v & 0x1249_2492_4924_9249;
+    x = (x ^ (x >> 2)) & 0x10c3_0c30_c30c_30c3;
+    x = (x ^ (x >> 4)) & 0x100f_00f0_0f00_f00f;
+    x = (x ^ (x >> 8)) & 0x001f_0000_ff00_00ff;
+    x = (x ^ (x >> 16)) & 0x001f_0000_0000_ffff;
+    x = (x ^ (x >> 32)) & 0x1f_ffff;
+    x as u32
+}
+
+/// Morton code: per level, the octant digit is `x << 2 | y << 1 | z`.
+#[inline]
+pub fn morton3(x: u32, y: u32, z: u32) -> u64 {
+    spread3(x) << 2 | spread3(y) << 1 | spread3(z)
+}
+
+/// Inverse of [`morton3`].
+#[inline]
+pub fn morton3_decode(m: u64) -> [u32; 3] {
+    [compact3(m >> 2), compact3(m >> 1), compact3(m)]
+}
+
+/// An element of the cube's symmetry group: output bit i = input bit `perm[i]` xor `flip` bit i.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Transform {
+    perm: [u8; 3],
+    flip: u8,
+}
+
+impl Transform {
+    const IDENTITY: Transform = Transform {
+        perm: [0, 1, 2],
+        flip: 0,
+    };
+
+    /// Octants are `x << 2 | y << 1 | z`; axis 0 is x (bit 2).
+    fn apply(self, octant: u8) -> u8 {
+        let bit = |o: u8, axis: u8| (o >> (2 - axis)) & 1;
+        let mut out = 0;
+        for i in 0..3u8 {
+            let b = bit(octant, self.perm[i as usize]) ^ ((self.flip >> (2 - i)) & 1);
+            out |= b << (2 - i);
+        }
+        out
+    }
+
+    /// `self` after `first`.
+    fn after(self, first: Transform) -> Transform {
+        // Found by evaluation: the group is small and this keeps the algebra obviously right.
+        all_transforms()
+            .into_iter()
+            .find(|t| (0..8).all(|o| t.apply(o) == self.apply(first.apply(o))))
+            .unwrap_or(Transform::IDENTITY)
+    }
+}
+
+fn all_transforms() -> Vec<Transform> {
+    const PERMS: [[u8; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
+    let mut out = Vec::with_capacity(48);
+    for perm in PERMS {
+        for flip in 0..8 {
+            out.push(Transform { perm, flip });
+        }
+    }
+    out
+}
+
+/// Reference Hilbert index (Skilling's transpose method), used to derive the base pattern
+/// and child orientations and in tests. `bits` levels, cells `0..2^bits`.
+pub fn hilbert3_reference(p: [u32; 3], bits: u32) -> u64 {
+    let mut x = p;
+    let m = 1u32 << (bits - 1);
+    // Undo excess work: walk the levels from the top, inverting or exchanging low bits.
+    let mut q = m;
+    while q > 1 {
+        let low = q - 1;
+        for i in 0..3 {
+            if x[i] & q != 0 {
+                x[0] ^= low;
+            } else {
+                let t = (x[0] ^ x[i]) & low;
+                x[0] ^= t;
+                x[i] ^= t;
+            }
+        }
+        q >>= 1;
+    }
+    // Gray encode.
+    x[1] ^= x[0];
+    x[2] ^= x[1];
+    let mut t = 0;
+    q = m;
+    while q > 1 {
+        if x[2] & q != 0 {
+            t ^= q - 1;
+        }
+        q >>= 1;
+    }
+    for v in &mut x {
+        *v ^= t;
+    }
+    let mut h = 0u64;
+    for b in (0..bits).rev() {
+        for v in &x {
+            h = h << 1 | ((v >> b) & 1) as u64;
+        }
+    }
+    h
+}
+
+/// One state's table for two levels: index = 6 Morton bits, value = (6 Hilbert bits, next state).
+struct HilbertTables {
+    two_level: Vec<[(u8, u8); 64]>,
+    one_level: Vec<[(u8, u8); 8]>,
+}
+
+fn tables() -> &'static HilbertTables {
+    static TABLES: OnceLock<HilbertTables> = OnceLock::new();
+    TABLES.get_or_init(build_tables)
+}
+
+fn build_tables() -> HilbertTables {
+    let split = |o: u8| [((o >> 2) & 1) as u32, ((o >> 1) & 1) as u32, (o & 1) as u32];
+    // Base pattern: the digit of each octant on a 2-level curve (top level only).
+    let mut base = [0u8; 8];
+    for o in 0..8u8 {
+        let c = split(o);
+        base[o as usize] = (hilbert3_reference([c[0] << 1, c[1] << 1, c[2] << 1], 2) >> 3) as u8;
+    }
+    // Child orientation C_o: the 8 cells inside octant o are visited in the order base(C_o(q)).
+    let transforms = all_transforms();
+    let mut child = [Transform::IDENTITY; 8];
+    for o in 0..8u8 {
+        let c = split(o);
+        let order: Vec<u8> = (0..8u8)
+            .map(|q| {
+                let l = split(q);
+                let p = [c[0] << 1 | l[0], c[1] << 1 | l[1], c[2] << 1 | l[2]];
+                (hilbert3_reference(p, 2) & 7) as u8
+            })
+            .collect();
+        if let Some(t) = transforms
+            .iter()
+            .find(|t| (0..8u8).all(|q| base[t.apply(q) as usize] == order[q as usize]))
+        {
+            child[o as usize] = *t;
+        }
+    }
+    // States are orientations reachable from the root: digit = base(S(q)), next = C_{S(q)} ∘ S.
+    let mut states = vec![Transform::IDENTITY];
+    let mut one_level: Vec<[(u8, u8); 8]> = Vec::new();
+    let mut i = 0;
+    while i < states.len() {
+        let s = states[i];
+        let mut row = [(0u8, 0u8); 8];
+        for q in 0..8u8 {
+            let sq = s.apply(q);
+            let next = child[sq as usize].after(s);
+            let idx = match states.iter().position(|t| *t == next) {
+                Some(k) => k,
+                None => {
+                    states.push(next);
+                    states.len() - 1
+                }
+            };
+            row[q as usize] = (base[sq as usize], idx as u8);
+        }
+        one_level.push(row);
+        i += 1;
+    }
+    let two_level = one_level
+        .iter()
+        .map(|row| {
+            let mut t = [(0u8, 0u8); 64];
+            for m in 0..64u8 {
+                let (d1, s1) = row[(m >> 3) as usize];
+                let (d2, s2) = one_level[s1 as usize][(m & 7) as usize];
+                t[m as usize] = (d1 << 3 | d2, s2);
+            }
+            t
+        })
+        .collect();
+    HilbertTables {
+        two_level,
+        one_level,
+    }
+}
+
+/// Hilbert index of a 63-bit Morton code (21 levels).
+#[inline]
+pub fn hilbert_from_morton(morton: u64) -> u64 {
+    let t = tables();
+    // Top level alone (bits 62..60), then ten steps of two levels.
+    let (d, mut state) = t.one_level[0][((morton >> 60) & 7) as usize];
+    let mut h = d as u64;
+    let mut shift = 60;
+    while shift > 0 {
+        shift -= 6;
+        let (d, s) = t.two_level[state as usize][((morton >> shift) & 63) as usize];
+        h = h << 6 | d as u64;
+        state = s;
+    }
+    h
+}
+
+/// Hilbert index of integer cell coordinates (each < 2^21).
+#[inline]
+pub fn hilbert3(x: u32, y: u32, z: u32) -> u64 {
+    hilbert_from_morton(morton3(x, y, z))
+}
+
+/// Maps f64 positions inside a cube to integer cells for keys.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyGrid {
+    min: [f64; 3],
+    inv_cell: f64,
+}
+
+impl KeyGrid {
+    /// Grid over the bounding cube of `bounds`.
+    pub fn new(bounds: &crate::Aabb) -> Self {
+        let cube = bounds.bounding_cube();
+        let side = cube.extent()[0];
+        let inv_cell = if side > 0.0 && side.is_finite() {
+            KEY_CELLS as f64 / side
+        } else {
+            0.0
+        };
+        Self {
+            min: cube.min,
+            inv_cell,
+        }
+    }
+
+    /// Cell of a point; points outside the cube are clamped (keys stay valid, locality degrades).
+    #[inline]
+    pub fn cell(&self, p: [f64; 3]) -> [u32; 3] {
+        let max = (KEY_CELLS - 1) as f64;
+        let f = |i: usize| ((p[i] - self.min[i]) * self.inv_cell).clamp(0.0, max) as u32;
+        [f(0), f(1), f(2)]
+    }
+
+    #[inline]
+    pub fn morton(&self, p: [f64; 3]) -> u64 {
+        let c = self.cell(p);
+        morton3(c[0], c[1], c[2])
+    }
+
+    #[inline]
+    pub fn hilbert(&self, p: [f64; 3]) -> u64 {
+        hilbert_from_morton(self.morton(p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shuffle::SplitMix64;
+
+    #[test]
+    fn morton_round_trip() {
+        let mut rng = SplitMix64::new(1);
+        for _ in 0..10_000 {
+            let p = [
+                rng.below(KEY_CELLS) as u32,
+                rng.below(KEY_CELLS) as u32,
+                rng.below(KEY_CELLS) as u32,
+            ];
+            assert_eq!(morton3_decode(morton3(p[0], p[1], p[2])), p);
+        }
+        assert_eq!(morton3(1, 0, 0), 4);
+        assert_eq!(morton3(0, 0, 1), 1);
+    }
+
+    #[test]
+    fn table_matches_reference_at_full_depth() {
+        let mut rng = SplitMix64::new(2);
+        for _ in 0..20_000 {
+            let p = [
+                rng.below(KEY_CELLS) as u32,
+                rng.below(KEY_CELLS) as u32,
+                rng.below(KEY_CELLS) as u32,
+            ];
+            assert_eq!(hilbert3(p[0], p[1], p[2]), hilbert3_reference(p, 21), "{p:?}");
+        }
+    }
+
+    #[test]
+    fn curve_is_continuous_and_bijective() {
+        // Cells of a 2^4 corner of the grid at full depth: consecutive Hilbert indices within
+        // the smallest sub-cubes must be face neighbours.
+        let n = 16u32;
+        let mut cells: Vec<(u64, [u32; 3])> = Vec::new();
+        for x in 0..n {
+            for y in 0..n {
+                for z in 0..n {
+                    cells.push((hilbert3(x, y, z), [x, y, z]));
+                }
+            }
+        }
+        cells.sort_unstable();
+        // The corner 16^3 cube is one sub-cube of the curve: its indices are contiguous.
+        for w in cells.windows(2) {
+            assert_eq!(w[1].0, w[0].0 + 1, "indices of a sub-cube are contiguous");
+            let d: u32 = (0..3).map(|i| w[0].1[i].abs_diff(w[1].1[i])).sum();
+            assert_eq!(d, 1, "{:?} -> {:?}", w[0], w[1]);
+        }
+    }
+}

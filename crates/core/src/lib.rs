@@ -1,0 +1,11 @@
+//! Primitives every Pointlet stage shares: f64 bounds, space-filling-curve keys,
+//! seeded permutations, the point schema and the structure-of-arrays point batch.
+
+pub mod aabb;
+pub mod codes;
+pub mod points;
+pub mod shuffle;
+pub mod size;
+
+pub use aabb::Aabb;
+pub use points::{flags, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES};
