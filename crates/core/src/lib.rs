@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod codes;
+pub mod partition;
 pub mod points;
 pub mod shuffle;
 pub mod size;
