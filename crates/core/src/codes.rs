@@ -317,7 +317,11 @@ mod tests {
                 rng.below(KEY_CELLS) as u32,
                 rng.below(KEY_CELLS) as u32,
             ];
-            assert_eq!(hilbert3(p[0], p[1], p[2]), hilbert3_reference(p, 21), "{p:?}");
+            assert_eq!(
+                hilbert3(p[0], p[1], p[2]),
+                hilbert3_reference(p, 21),
+                "{p:?}"
+            );
         }
     }
 

@@ -18,7 +18,11 @@ pub enum Partitioner {
 }
 
 impl Partitioner {
-    pub const ALL: [Partitioner; 3] = [Partitioner::Morton, Partitioner::Hilbert, Partitioner::KdTree];
+    pub const ALL: [Partitioner; 3] = [
+        Partitioner::Morton,
+        Partitioner::Hilbert,
+        Partitioner::KdTree,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {

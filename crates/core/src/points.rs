@@ -88,10 +88,7 @@ impl Quantization {
         }
         for (i, o) in self.offset.iter().enumerate() {
             if !o.is_finite() {
-                return Err(QuantizationError::NotFinite {
-                    value: *o,
-                    axis: i,
-                });
+                return Err(QuantizationError::NotFinite { value: *o, axis: i });
             }
         }
         Ok(())
@@ -291,10 +288,14 @@ impl PointBatch {
             self.waveform = vec![[0; WAVEFORM_BYTES]; n];
         }
         if layout.extra_bytes > self.layout.extra_bytes {
-            let (old, new) = (self.layout.extra_bytes as usize, layout.extra_bytes as usize);
+            let (old, new) = (
+                self.layout.extra_bytes as usize,
+                layout.extra_bytes as usize,
+            );
             let mut eb = vec![0u8; n * new];
             for i in 0..n {
-                eb[i * new..i * new + old].copy_from_slice(&self.extra_bytes[i * old..(i + 1) * old]);
+                eb[i * new..i * new + old]
+                    .copy_from_slice(&self.extra_bytes[i * old..(i + 1) * old]);
             }
             self.extra_bytes = eb;
         }

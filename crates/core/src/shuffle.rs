@@ -58,12 +58,12 @@ pub fn next_prime(n: u64) -> u64 {
         if v < 2 {
             return false;
         }
-        if v % 2 == 0 {
+        if v.is_multiple_of(2) {
             return v == 2;
         }
         let mut d = 3u64;
         while d.saturating_mul(d) <= v {
-            if v % d == 0 {
+            if v.is_multiple_of(d) {
                 return false;
             }
             d += 2;

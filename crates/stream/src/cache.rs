@@ -1,0 +1,537 @@
+//! The RAM cache of pointlet prefixes and its loader threads.
+
+use crate::source::{PointletData, PointletSource, SourceError, BYTES_PER_POINT};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering::*};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+#[derive(Clone, Debug)]
+pub struct CacheConfig {
+    /// Bytes of point data the cache may hold.
+    pub ram_budget: u64,
+    /// Loader threads.
+    pub loaders: usize,
+    /// Pending tasks at most: keeps the latency of each task within a few frames.
+    pub queue_capacity: usize,
+    /// Extra fraction read beyond a request when RAM allows (the paper's 25 %).
+    pub prefetch: f64,
+    /// Fraction of the budget above which unused points are unloaded.
+    pub pressure: f64,
+}
+
+impl Default for CacheConfig {
+    fn default() -> Self {
+        Self {
+            ram_budget: 1 << 30,
+            loaders: 4,
+            queue_capacity: 4096,
+            prefetch: 0.25,
+            pressure: 0.9,
+        }
+    }
+}
+
+/// Counters since the cache was created (ram_* are current / peak bytes).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CacheStats {
+    pub load_tasks: u64,
+    pub unload_tasks: u64,
+    pub points_loaded: u64,
+    pub points_evicted: u64,
+    pub bytes_read: u64,
+    pub ram_used: u64,
+    pub ram_peak: u64,
+    pub queued: usize,
+    pub read_errors: u64,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Task {
+    Load(u32),
+    Unload(u32),
+}
+
+struct Shared<S> {
+    source: S,
+    slots: Vec<Mutex<PointletData>>,
+    /// Mirror of each slot's length, readable without the lock.
+    loaded: Vec<AtomicU32>,
+    wanted: Vec<AtomicU32>,
+    /// Frame in which the pointlet was last wanted (for least-recently-used eviction).
+    last_wanted: Vec<AtomicU64>,
+    load_queued: Vec<AtomicBool>,
+    unload_queued: Vec<AtomicBool>,
+    /// A loader owns the pointlet; others skip it (the paper's per-pointlet mutex, try-locked).
+    busy: Vec<AtomicBool>,
+    config: CacheConfig,
+    ram_used: AtomicU64,
+    ram_peak: AtomicU64,
+    queued: AtomicUsize,
+    in_flight: AtomicUsize,
+    load_tasks: AtomicU64,
+    unload_tasks: AtomicU64,
+    points_loaded: AtomicU64,
+    points_evicted: AtomicU64,
+    read_errors: AtomicU64,
+    last_error: Mutex<Option<SourceError>>,
+}
+
+/// The RAM cache. Owned by the render thread; loader threads share its state.
+pub struct RamCache<S: PointletSource> {
+    shared: Arc<Shared<S>>,
+    tx: Option<SyncSender<Task>>,
+    workers: Vec<JoinHandle<()>>,
+    frame: u64,
+}
+
+impl<S: PointletSource> RamCache<S> {
+    pub fn new(source: S, config: CacheConfig) -> std::io::Result<Self> {
+        let n = source.pointlet_count();
+        let atomics32 = || (0..n).map(|_| AtomicU32::new(0)).collect::<Vec<_>>();
+        let flags = || (0..n).map(|_| AtomicBool::new(false)).collect::<Vec<_>>();
+        let shared = Arc::new(Shared {
+            source,
+            slots: (0..n)
+                .map(|_| Mutex::new(PointletData::default()))
+                .collect(),
+            loaded: atomics32(),
+            wanted: atomics32(),
+            last_wanted: (0..n).map(|_| AtomicU64::new(0)).collect(),
+            load_queued: flags(),
+            unload_queued: flags(),
+            busy: flags(),
+            config: config.clone(),
+            ram_used: AtomicU64::new(0),
+            ram_peak: AtomicU64::new(0),
+            queued: AtomicUsize::new(0),
+            in_flight: AtomicUsize::new(0),
+            load_tasks: AtomicU64::new(0),
+            unload_tasks: AtomicU64::new(0),
+            points_loaded: AtomicU64::new(0),
+            points_evicted: AtomicU64::new(0),
+            read_errors: AtomicU64::new(0),
+            last_error: Mutex::new(None),
+        });
+        let (tx, rx) = sync_channel(config.queue_capacity.max(1));
+        let rx = Arc::new(Mutex::new(rx));
+        let mut workers = Vec::new();
+        for k in 0..config.loaders.max(1) {
+            let (shared, rx) = (shared.clone(), rx.clone());
+            workers.push(
+                std::thread::Builder::new()
+                    .name(format!("pointlet-loader-{k}"))
+                    .spawn(move || worker(&shared, &rx))?,
+            );
+        }
+        Ok(Self {
+            shared,
+            tx: Some(tx),
+            workers,
+            frame: 0,
+        })
+    }
+
+    pub fn pointlet_count(&self) -> usize {
+        self.shared.slots.len()
+    }
+
+    /// Points of pointlet `i` resident now (a prefix of its shuffled order).
+    pub fn resident(&self, i: usize) -> u32 {
+        self.shared.loaded.get(i).map_or(0, |a| a.load(Acquire))
+    }
+
+    /// Hands over this frame's wanted counts (one per pointlet) and enqueues tasks.
+    /// Never blocks: when the queue is full, the rest waits for a later frame.
+    pub fn request(&mut self, wanted: &[u32]) {
+        self.frame += 1;
+        let sh = &self.shared;
+        let Some(tx) = &self.tx else { return };
+        let budget = sh.config.ram_budget as f64;
+        let pressure = sh.ram_used.load(Relaxed) as f64 > budget * sh.config.pressure;
+        let mut surplus: Vec<(u64, u32)> = Vec::new();
+        let mut loads: Vec<u32> = Vec::new();
+        for (i, w) in wanted.iter().enumerate().take(sh.slots.len()) {
+            let w = (*w).min(sh.source.pointlet_len(i));
+            sh.wanted[i].store(w, Relaxed);
+            if w > 0 {
+                sh.last_wanted[i].store(self.frame, Relaxed);
+            }
+            let have = sh.loaded[i].load(Acquire);
+            if w > have && !sh.load_queued[i].load(Acquire) {
+                loads.push(i as u32);
+            } else if w < have && pressure && !sh.unload_queued[i].load(Acquire) {
+                surplus.push((sh.last_wanted[i].load(Relaxed), i as u32));
+            }
+        }
+        // Under pressure, unloads go first (stalest first): they make room for the loads.
+        if pressure {
+            surplus.sort_unstable();
+            let target = (budget * (sh.config.pressure - 0.1).max(0.0)) as u64;
+            let mut to_free = sh.ram_used.load(Relaxed).saturating_sub(target);
+            for (_, i) in surplus {
+                if to_free == 0 {
+                    break;
+                }
+                let i = i as usize;
+                let extra = sh.loaded[i]
+                    .load(Relaxed)
+                    .saturating_sub(sh.wanted[i].load(Relaxed));
+                sh.unload_queued[i].store(true, Release);
+                if !self.send(tx, Task::Unload(i as u32)) {
+                    sh.unload_queued[i].store(false, Release);
+                    break;
+                }
+                to_free = to_free.saturating_sub(extra as u64 * BYTES_PER_POINT);
+            }
+        }
+        for i in loads {
+            sh.load_queued[i as usize].store(true, Release);
+            if !self.send(tx, Task::Load(i)) {
+                sh.load_queued[i as usize].store(false, Release);
+                break;
+            }
+        }
+    }
+
+    fn send(&self, tx: &SyncSender<Task>, t: Task) -> bool {
+        self.shared.queued.fetch_add(1, AcqRel);
+        match tx.try_send(t) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
+                self.shared.queued.fetch_sub(1, AcqRel);
+                false
+            }
+        }
+    }
+
+    /// Calls `f` with the resident points of pointlet `i` in `range` (clamped to what is resident).
+    /// Holds the pointlet's lock only for the call: loaders append outside it.
+    pub fn with_points<R>(
+        &self,
+        i: usize,
+        range: std::ops::Range<u32>,
+        f: impl FnOnce(&[[i32; 3]], &[u32]) -> R,
+    ) -> Option<R> {
+        let slot = self.shared.slots.get(i)?.lock().ok()?;
+        let end = (range.end as usize).min(slot.len());
+        let start = (range.start as usize).min(end);
+        Some(f(&slot.positions[start..end], &slot.attribute[start..end]))
+    }
+
+    pub fn stats(&self) -> CacheStats {
+        let sh = &self.shared;
+        CacheStats {
+            load_tasks: sh.load_tasks.load(Relaxed),
+            unload_tasks: sh.unload_tasks.load(Relaxed),
+            points_loaded: sh.points_loaded.load(Relaxed),
+            points_evicted: sh.points_evicted.load(Relaxed),
+            bytes_read: sh.points_loaded.load(Relaxed) * BYTES_PER_POINT,
+            ram_used: sh.ram_used.load(Relaxed),
+            ram_peak: sh.ram_peak.load(Relaxed),
+            queued: sh.queued.load(Relaxed),
+            read_errors: sh.read_errors.load(Relaxed),
+        }
+    }
+
+    /// The most recent read error, if any (the cache keeps serving what it has).
+    pub fn take_error(&self) -> Option<SourceError> {
+        self.shared
+            .last_error
+            .lock()
+            .ok()
+            .and_then(|mut e| e.take())
+    }
+
+    /// True when no task is queued or running (for tests and benchmarks).
+    pub fn is_idle(&self) -> bool {
+        self.shared.queued.load(Acquire) == 0 && self.shared.in_flight.load(Acquire) == 0
+    }
+
+    /// Waits until idle; for tests, benchmarks and tools, never the render loop.
+    pub fn wait_idle(&self) {
+        while !self.is_idle() {
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
+    }
+}
+
+impl<S: PointletSource> Drop for RamCache<S> {
+    fn drop(&mut self) {
+        self.tx = None; // closes the queue: workers finish their task and exit
+        for w in self.workers.drain(..) {
+            let _ = w.join();
+        }
+    }
+}
+
+fn worker<S: PointletSource>(sh: &Shared<S>, rx: &Mutex<Receiver<Task>>) {
+    loop {
+        let task = match rx.lock() {
+            Ok(r) => r.recv(),
+            Err(_) => return,
+        };
+        let Ok(task) = task else { return };
+        sh.in_flight.fetch_add(1, AcqRel);
+        sh.queued.fetch_sub(1, AcqRel);
+        match task {
+            Task::Load(i) => {
+                sh.load_queued[i as usize].store(false, Release);
+                load(sh, i as usize);
+            }
+            Task::Unload(i) => {
+                sh.unload_queued[i as usize].store(false, Release);
+                unload(sh, i as usize);
+            }
+        }
+        sh.in_flight.fetch_sub(1, AcqRel);
+    }
+}
+
+/// Reserves `bytes` of the budget, or as much as is free in whole points; returns points granted.
+fn reserve(sh: &Shared<impl PointletSource>, points: u32) -> u32 {
+    let budget = sh.config.ram_budget;
+    let mut used = sh.ram_used.load(Relaxed);
+    loop {
+        let free_points = (budget.saturating_sub(used) / BYTES_PER_POINT).min(points as u64) as u32;
+        if free_points == 0 {
+            return 0;
+        }
+        let new = used + free_points as u64 * BYTES_PER_POINT;
+        match sh
+            .ram_used
+            .compare_exchange_weak(used, new, AcqRel, Relaxed)
+        {
+            Ok(_) => {
+                sh.ram_peak.fetch_max(new, Relaxed);
+                return free_points;
+            }
+            Err(u) => used = u,
+        }
+    }
+}
+
+fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
+    if sh.busy[i]
+        .compare_exchange(false, true, AcqRel, Relaxed)
+        .is_err()
+    {
+        return; // another loader is already bringing this pointlet up to date
+    }
+    sh.load_tasks.fetch_add(1, Relaxed);
+    let have = sh.loaded[i].load(Acquire);
+    let want = sh.wanted[i].load(Relaxed);
+    if want > have {
+        let len = sh.source.pointlet_len(i);
+        let budget = sh.config.ram_budget as f64;
+        let ahead = ((want as f64) * sh.config.prefetch).ceil() as u32;
+        let with_prefetch = want.saturating_add(ahead).min(len);
+        let used = sh.ram_used.load(Relaxed) as f64;
+        // Prefetch only while the cache stays below the pressure mark afterwards.
+        let extra_bytes = (with_prefetch - have) as f64 * BYTES_PER_POINT as f64;
+        let target = if used + extra_bytes <= budget * sh.config.pressure {
+            with_prefetch
+        } else {
+            want
+        };
+        let granted = reserve(sh, target - have);
+        if granted > 0 {
+            let mut fresh = PointletData::default();
+            fresh.positions.reserve_exact(granted as usize);
+            fresh.attribute.reserve_exact(granted as usize);
+            match sh.source.read(i, have..have + granted, &mut fresh) {
+                Ok(()) if fresh.len() == granted as usize => {
+                    if let Ok(mut slot) = sh.slots[i].lock() {
+                        slot.positions.extend_from_slice(&fresh.positions);
+                        slot.attribute.extend_from_slice(&fresh.attribute);
+                        sh.loaded[i].store(slot.len() as u32, Release);
+                    }
+                    sh.points_loaded.fetch_add(granted as u64, Relaxed);
+                }
+                Ok(()) => {
+                    sh.ram_used
+                        .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
+                    record_error(
+                        sh,
+                        SourceError {
+                            pointlet: i,
+                            range: have..have + granted,
+                            message: format!("source returned {} points", fresh.len()),
+                        },
+                    );
+                }
+                Err(e) => {
+                    sh.ram_used
+                        .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
+                    record_error(sh, e);
+                }
+            }
+        }
+    }
+    sh.busy[i].store(false, Release);
+}
+
+fn unload<S: PointletSource>(sh: &Shared<S>, i: usize) {
+    if sh.busy[i]
+        .compare_exchange(false, true, AcqRel, Relaxed)
+        .is_err()
+    {
+        return;
+    }
+    sh.unload_tasks.fetch_add(1, Relaxed);
+    let keep = sh.wanted[i].load(Relaxed);
+    if let Ok(mut slot) = sh.slots[i].lock() {
+        let len = slot.len() as u32;
+        if len > keep {
+            slot.truncate(keep as usize);
+            sh.loaded[i].store(keep, Release);
+            let freed = (len - keep) as u64;
+            sh.ram_used.fetch_sub(freed * BYTES_PER_POINT, AcqRel);
+            sh.points_evicted.fetch_add(freed, Relaxed);
+        }
+    }
+    sh.busy[i].store(false, Release);
+}
+
+fn record_error<S>(sh: &Shared<S>, e: SourceError) {
+    sh.read_errors.fetch_add(1, Relaxed);
+    if let Ok(mut slot) = sh.last_error.lock() {
+        *slot = Some(e);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ops::Range;
+
+    /// A source whose point j of pointlet i is ([i, j, i ^ j], i * 65536 + j).
+    struct Synthetic {
+        pointlets: usize,
+        size: u32,
+        fail_on: Option<usize>,
+    }
+
+    impl PointletSource for Synthetic {
+        fn pointlet_count(&self) -> usize {
+            self.pointlets
+        }
+        fn pointlet_len(&self, _: usize) -> u32 {
+            self.size
+        }
+        fn read(&self, i: usize, r: Range<u32>, out: &mut PointletData) -> Result<(), SourceError> {
+            if self.fail_on == Some(i) {
+                return Err(SourceError {
+                    pointlet: i,
+                    range: r,
+                    message: "disk on fire".into(),
+                });
+            }
+            for j in r {
+                out.positions
+                    .push([i as i32, j as i32, (i as i32) ^ (j as i32)]);
+                out.attribute.push((i as u32) << 16 | j);
+            }
+            Ok(())
+        }
+    }
+
+    fn cache(budget_points: u64, fail_on: Option<usize>) -> RamCache<Synthetic> {
+        let src = Synthetic {
+            pointlets: 100,
+            size: 1000,
+            fail_on,
+        };
+        RamCache::new(
+            src,
+            CacheConfig {
+                ram_budget: budget_points * BYTES_PER_POINT,
+                loaders: 3,
+                queue_capacity: 64,
+                ..Default::default()
+            },
+        )
+        .expect("threads")
+    }
+
+    /// Requests until the cache has nothing left to do (several frames: the queue is bounded).
+    fn settle(c: &mut RamCache<Synthetic>, wanted: &[u32]) {
+        for _ in 0..50 {
+            c.request(wanted);
+            c.wait_idle();
+        }
+    }
+
+    #[test]
+    fn loads_prefixes_with_the_right_points() {
+        let mut c = cache(1_000_000, None);
+        let wanted: Vec<u32> = (0..100).map(|i| (i * 7 % 1000) as u32).collect();
+        settle(&mut c, &wanted);
+        for (i, w) in wanted.iter().enumerate() {
+            assert!(c.resident(i) >= *w, "pointlet {i}: {} < {w}", c.resident(i));
+            c.with_points(i, 0..*w, |p, a| {
+                for (j, (p, a)) in p.iter().zip(a).enumerate() {
+                    assert_eq!(*p, [i as i32, j as i32, i as i32 ^ j as i32]);
+                    assert_eq!(*a, (i as u32) << 16 | j as u32);
+                }
+            })
+            .expect("slot");
+        }
+        // Plenty of RAM: prefetch read beyond the request.
+        assert!(c.stats().points_loaded > wanted.iter().map(|w| *w as u64).sum::<u64>());
+    }
+
+    #[test]
+    fn budget_holds_and_evicts_what_is_no_longer_wanted() {
+        // Budget: 20 000 points out of 100 000.
+        let mut c = cache(20_000, None);
+        let mut first = vec![0u32; 100];
+        first[..20].iter_mut().for_each(|w| *w = 900);
+        settle(&mut c, &first);
+        let s1 = c.stats();
+        assert!(s1.ram_used <= 20_000 * BYTES_PER_POINT, "{s1:?}");
+        assert!(
+            (0..20).map(|i| c.resident(i) as u64).sum::<u64>() >= 17_000,
+            "{s1:?}"
+        );
+        // The camera moves: other pointlets are wanted, the first ones are evicted.
+        let mut second = vec![0u32; 100];
+        second[50..70].iter_mut().for_each(|w| *w = 900);
+        settle(&mut c, &second);
+        let s2 = c.stats();
+        assert!(s2.points_evicted > 0 && s2.unload_tasks > 0, "{s2:?}");
+        assert!(s2.ram_peak <= 20_000 * BYTES_PER_POINT, "{s2:?}");
+        assert!((50..70).all(|i| c.resident(i) >= 800), "{s2:?}");
+        assert!((0..20).all(|i| c.resident(i) == 0), "{s2:?}");
+    }
+
+    #[test]
+    fn no_unloads_without_pressure() {
+        let mut c = cache(1_000_000, None);
+        settle(&mut c, &[500; 100]);
+        settle(&mut c, &[0; 100]);
+        let s = c.stats();
+        assert_eq!(s.points_evicted, 0, "{s:?}");
+        assert!((0..100).all(|i| c.resident(i) >= 500));
+    }
+
+    #[test]
+    fn read_errors_are_reported_not_fatal() {
+        let mut c = cache(1_000_000, Some(3));
+        settle(&mut c, &[100; 100]);
+        assert_eq!(c.resident(3), 0);
+        assert!(c.resident(4) >= 100);
+        let e = c.take_error().expect("error kept");
+        assert!(e.to_string().contains("disk on fire"), "{e}");
+        assert!(c.stats().read_errors > 0);
+    }
+
+    #[test]
+    fn request_never_blocks_on_a_full_queue() {
+        let mut c = cache(10_000_000, None);
+        // More loads than the queue holds: request returns at once, later frames finish the job.
+        c.request(&[1000; 100]);
+        settle(&mut c, &[1000; 100]);
+        assert!((0..100).all(|i| c.resident(i) == 1000));
+    }
+}

@@ -1,0 +1,56 @@
+//! Where the cache reads points from: a store on disk, or anything else that can hand out
+//! ranges of a pointlet's shuffled order.
+
+use std::ops::Range;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+#[error("reading points {range:?} of pointlet {pointlet}: {message}")]
+pub struct SourceError {
+    pub pointlet: usize,
+    pub range: Range<u32>,
+    pub message: String,
+}
+
+/// The points of one pointlet prefix as the GPU wants them: quantized positions and one packed
+/// 32-bit attribute (an RGBA colour, or any attribute encoded in four bytes, as in the paper).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointletData {
+    pub positions: Vec<[i32; 3]>,
+    pub attribute: Vec<u32>,
+}
+
+/// Bytes one cached point costs.
+pub const BYTES_PER_POINT: u64 = 16;
+
+impl PointletData {
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Bytes held, by capacity: what the allocator really gave us.
+    pub fn bytes(&self) -> u64 {
+        (self.positions.capacity() * 12 + self.attribute.capacity() * 4) as u64
+    }
+
+    pub fn truncate(&mut self, n: usize) {
+        self.positions.truncate(n);
+        self.attribute.truncate(n);
+        self.positions.shrink_to_fit();
+        self.attribute.shrink_to_fit();
+    }
+}
+
+/// Random access to pointlet prefixes. Implementations must be cheap to call from many
+/// threads at once (positioned reads, no shared cursor).
+pub trait PointletSource: Send + Sync + 'static {
+    fn pointlet_count(&self) -> usize;
+    /// Points in pointlet `i`.
+    fn pointlet_len(&self, i: usize) -> u32;
+    /// Appends points `range` of pointlet `i` to `out`.
+    fn read(&self, i: usize, range: Range<u32>, out: &mut PointletData) -> Result<(), SourceError>;
+}
