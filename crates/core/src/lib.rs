@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod codes;
+pub mod lod;
 pub mod partition;
 pub mod points;
 pub mod shuffle;
