@@ -2,6 +2,7 @@
 //! seeded permutations, the point schema and the structure-of-arrays point batch.
 
 pub mod aabb;
+pub mod camera;
 pub mod codes;
 pub mod lod;
 pub mod partition;
@@ -10,4 +11,5 @@ pub mod shuffle;
 pub mod size;
 
 pub use aabb::Aabb;
+pub use camera::Camera;
 pub use points::{flags, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES};

@@ -73,7 +73,11 @@ pub fn requested_points(
                 return 0.0;
             }
             // A degenerate (single-point) box has no anomaly to damp.
-            let gamma = if *h > 0.0 { sum_h * sum_h / (h * h) } else { 1.0 };
+            let gamma = if *h > 0.0 {
+                sum_h * sum_h / (h * h)
+            } else {
+                1.0
+            };
             gamma * projected_size(view_proj, b, viewport)
         })
         .collect();
@@ -128,9 +132,15 @@ mod tests {
     fn culls_boxes_behind_or_beside_the_camera() {
         let vp = camera();
         assert!(!outside_frustum(&vp, &cube([0.0, 0.0, 0.0], 1.0)));
-        assert!(outside_frustum(&vp, &cube([0.0, -20.0, 0.0], 1.0)), "behind");
+        assert!(
+            outside_frustum(&vp, &cube([0.0, -20.0, 0.0], 1.0)),
+            "behind"
+        );
         assert!(outside_frustum(&vp, &cube([50.0, 0.0, 0.0], 1.0)), "right");
-        assert!(outside_frustum(&vp, &cube([0.0, 500.0, 0.0], 1.0)), "beyond far");
+        assert!(
+            outside_frustum(&vp, &cube([0.0, 500.0, 0.0], 1.0)),
+            "beyond far"
+        );
     }
 
     #[test]
@@ -156,7 +166,13 @@ mod tests {
         // Same projected size (twice as large at twice the distance), different extents.
         let small = cube([0.0, 0.0, 0.0], 0.5);
         let large = cube([0.0, 10.0, 0.0], 1.0);
-        let r = requested_points(&vp, [1000.0, 1000.0], &[small, large], &[1_000_000; 2], 10_000);
+        let r = requested_points(
+            &vp,
+            [1000.0, 1000.0],
+            &[small, large],
+            &[1_000_000; 2],
+            10_000,
+        );
         assert!(r[0] > 2 * r[1], "{r:?}");
     }
 }

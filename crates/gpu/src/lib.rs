@@ -1,1 +1,49 @@
-//! placeholder
+//! The GPU stage: a headless wgpu context, point data in GPU pages, the compute rasterizers of
+//! the compute-shader paper and the hardware point baseline, and the screen passes (resolve,
+//! hole filling, Eye-Dome Lighting). WGSL lives in `shaders/`, one file per pass.
+
+mod bandwidth;
+mod cloud;
+mod context;
+mod hw_points;
+mod raster;
+pub mod reference;
+mod renderer;
+mod screen;
+mod shaders;
+mod target;
+
+pub use bandwidth::copy_bandwidth;
+pub use cloud::{
+    decode_compact, quantize_compact, GpuCloud, PageMeta, PointEncoding, PointSet, COMPACT_STEPS,
+};
+pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
+pub use raster::RasterVariant;
+pub use renderer::{FrameTiming, RenderSettings, Renderer};
+pub use screen::{EdlSettings, ScreenSettings};
+pub use target::RenderTarget;
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum GpuError {
+    #[error("no GPU adapter{}: found [{}]{}", wanted.as_ref().map(|w| format!(" matching '{w}'")).unwrap_or_default(), found.join("; "), if found.is_empty() { " — install a Vulkan driver (on Debian without a GPU: apt-get install mesa-vulkan-drivers)" } else { "" })]
+    NoAdapter {
+        wanted: Option<String>,
+        found: Vec<String>,
+    },
+    #[error("the GPU device failed: {0}")]
+    Device(String),
+    #[error("out of GPU memory while {0}")]
+    OutOfMemory(String),
+    #[error("GPU validation error while {0}")]
+    Validation(String),
+    #[error("'{what}' is not available on {adapter}: {why}")]
+    Unsupported {
+        what: String,
+        why: String,
+        adapter: String,
+    },
+    #[error("{0}")]
+    InvalidInput(String),
+}

@@ -1,0 +1,55 @@
+// The hardware baseline (`hw-points`): the render pipeline's point-list primitive, one pixel per
+// point, depth test in hardware (compute-shader paper §5: the GL_POINTS baseline). Points come in
+// through vertex buffers; the page origin (camera-relative) is looked up per vertex.
+
+override PAGE_SIZE: u32 = 4096u;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    @location(1) depth: f32,
+}
+
+fn emit(page_id: u32, local: u32, p: vec3<f32>, color: u32) -> VertexOut {
+    var out: VertexOut;
+    if local >= pages[page_id].count {
+        // Unused slot of a partly filled page: outside the clip volume.
+        out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0);
+        return out;
+    }
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
+    out.color = vec4<f32>(unpack4x8unorm(color).rgb, 1.0);
+    out.depth = out.clip.w;
+    return out;
+}
+
+@vertex
+fn vs_full16(@builtin(vertex_index) vi: u32, @location(0) local_pos: vec3<f32>,
+             @location(1) color: u32) -> VertexOut {
+    let page_id = dispatch.first_page + vi / PAGE_SIZE;
+    return emit(page_id, vi % PAGE_SIZE, pages[page_id].origin + local_pos, color);
+}
+
+@vertex
+fn vs_compact8(@builtin(vertex_index) vi: u32, @location(0) packed: vec2<u32>,
+               @location(1) fine_word: u32) -> VertexOut {
+    let page_id = dispatch.first_page + vi / PAGE_SIZE;
+    let page = pages[page_id];
+    let coarse = vec3<u32>(packed.x & 0x3ffu, (packed.x >> 10u) & 0x3ffu, (packed.x >> 20u) & 0x3ffu);
+    let fine = vec3<u32>(fine_word & 0x3ffu, (fine_word >> 10u) & 0x3ffu, (fine_word >> 20u) & 0x3ffu);
+    var q = vec3<f32>(coarse * 1024u) + vec3<f32>(512.0);
+    if (page.flags & 1u) != 0u {
+        q = vec3<f32>(coarse * 1024u + fine) + vec3<f32>(0.5);
+    }
+    return emit(page_id, vi % PAGE_SIZE, page.origin + q * page.step, packed.y);
+}
+
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+    @location(1) depth: vec4<f32>,
+}
+
+@fragment
+fn fs_main(v: VertexOut) -> FragmentOut {
+    return FragmentOut(v.color, vec4<f32>(v.depth, 0.0, 0.0, 0.0));
+}

@@ -1,0 +1,31 @@
+// Depth pre-pass with 32-bit atomics: the closest view depth per pixel. Used by the 32-bit
+// fallback rasterizer (adapters without 64-bit atomics) and by both high-quality variants
+// (compute-shader paper §3.5: "the depth pass ... with simple 32bit atomic operations").
+// Stores ~depth_bits with atomicMax so a cleared (zero) buffer means empty.
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> depth_buffer: array<atomic<u32>>;
+
+@compute @workgroup_size(WG)
+fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let slot = page_slot(wg, nwg);
+    if slot >= dispatch.page_count {
+        return;
+    }
+    let page_id = page_list[dispatch.list_offset + slot];
+    let page = pages[page_id];
+    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
+    for (var i = lid; i < page.count; i += WG) {
+        let hit = project(load_point(page, base + i).pos);
+        if hit.pixel == NO_PIXEL {
+            continue;
+        }
+        let inv = ~hit.depth_bits;
+        if atomicLoad(&depth_buffer[hit.pixel]) < inv {
+            atomicMax(&depth_buffer[hit.pixel], inv);
+        }
+    }
+}

@@ -1,0 +1,38 @@
+// High-quality shading, accumulation pass (compute-shader paper §3.5, after Botsch et al.):
+// every point within `blend_factor` (1 %) of the closest depth found by raster_depth.wgsl adds
+// its colour and a count with four 32-bit atomicAdds; the resolve pass divides. 32-bit atomics
+// only, so HQS also runs where 64-bit atomics are missing.
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> depth_buffer: array<atomic<u32>>;
+// r, g, b sums and the count, four words per pixel.
+@group(1) @binding(1) var<storage, read_write> sums: array<atomic<u32>>;
+
+@compute @workgroup_size(WG)
+fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let slot = page_slot(wg, nwg);
+    if slot >= dispatch.page_count {
+        return;
+    }
+    let page_id = page_list[dispatch.list_offset + slot];
+    let page = pages[page_id];
+    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
+    for (var i = lid; i < page.count; i += WG) {
+        let s = load_point(page, base + i);
+        let hit = project(s.pos);
+        if hit.pixel == NO_PIXEL {
+            continue;
+        }
+        let closest = bitcast<f32>(~atomicLoad(&depth_buffer[hit.pixel]));
+        if bitcast<f32>(hit.depth_bits) <= closest * frame.blend_factor {
+            let at = hit.pixel * 4u;
+            atomicAdd(&sums[at], s.color & 0xffu);
+            atomicAdd(&sums[at + 1u], (s.color >> 8u) & 0xffu);
+            atomicAdd(&sums[at + 2u], (s.color >> 16u) & 0xffu);
+            atomicAdd(&sums[at + 3u], 1u);
+        }
+    }
+}

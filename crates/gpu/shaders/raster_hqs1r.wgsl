@@ -1,0 +1,52 @@
+// Robust single-atomic high-quality shading, HQS1R (compute-shader paper §3.5.1, Listing 9):
+// r, g, b and the count share one 64-bit word as 16-16-16-16 bits and one atomicAdd per point.
+// The lane that sees the count reach 255 moves the word into the two 64-bit fallback words
+// (r<<32|g, b<<32|count) and zeroes it; lanes that arrive while the count is ≥ 255 add themselves
+// to the fallback directly. The spare count bits absorb lanes racing with the reset.
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> depth_buffer: array<atomic<u32>>;
+@group(1) @binding(1) var<storage, read_write> packed: array<atomic<u64>>;
+@group(1) @binding(2) var<storage, read_write> overflow: array<atomic<u64>>;
+
+@compute @workgroup_size(WG)
+fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let slot = page_slot(wg, nwg);
+    if slot >= dispatch.page_count {
+        return;
+    }
+    let page_id = page_list[dispatch.list_offset + slot];
+    let page = pages[page_id];
+    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
+    for (var i = lid; i < page.count; i += WG) {
+        let s = load_point(page, base + i);
+        let hit = project(s.pos);
+        if hit.pixel == NO_PIXEL {
+            continue;
+        }
+        let closest = bitcast<f32>(~atomicLoad(&depth_buffer[hit.pixel]));
+        if bitcast<f32>(hit.depth_bits) > closest * frame.blend_factor {
+            continue;
+        }
+        var r = u64(s.color & 0xffu);
+        var g = u64((s.color >> 8u) & 0xffu);
+        var b = u64((s.color >> 16u) & 0xffu);
+        let old = atomicAdd(&packed[hit.pixel], (r << 48u) | (g << 32u) | (b << 16u) | 1lu);
+        let count = u32(old & 0xfffflu);
+        if count >= 255u {
+            var a = 1lu;
+            if count == 255u {
+                atomicExchange(&packed[hit.pixel], 0lu);
+                r += (old >> 48u) & 0xfffflu;
+                g += (old >> 32u) & 0xfffflu;
+                b += (old >> 16u) & 0xfffflu;
+                a += 255lu;
+            }
+            atomicAdd(&overflow[hit.pixel * 2u], (r << 32u) | g);
+            atomicAdd(&overflow[hit.pixel * 2u + 1u], (b << 32u) | a);
+        }
+    }
+}

@@ -1,0 +1,32 @@
+// Colour pass of the 32-bit fallback rasterizer (for adapters without 64-bit atomics, e.g. some
+// WebGPU targets): after raster_depth.wgsl found the closest depth, points at exactly that depth
+// race for the colour with a 32-bit atomicMax of ~rgba. Same image as the 64-bit path: the
+// closest point, and on equal depth the smaller colour.
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> depth_buffer: array<atomic<u32>>;
+@group(1) @binding(1) var<storage, read_write> color_buffer: array<atomic<u32>>;
+
+@compute @workgroup_size(WG)
+fn color_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let slot = page_slot(wg, nwg);
+    if slot >= dispatch.page_count {
+        return;
+    }
+    let page_id = page_list[dispatch.list_offset + slot];
+    let page = pages[page_id];
+    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
+    for (var i = lid; i < page.count; i += WG) {
+        let s = load_point(page, base + i);
+        let hit = project(s.pos);
+        if hit.pixel == NO_PIXEL {
+            continue;
+        }
+        if atomicLoad(&depth_buffer[hit.pixel]) == ~hit.depth_bits {
+            atomicMax(&color_buffer[hit.pixel], ~s.color);
+        }
+    }
+}

@@ -1,0 +1,88 @@
+// Closest-point rasterization with subgroup reduction (compute-shader paper §3.3–3.4).
+// MODE 0 (`reduce`): if every lane of the subgroup hits the same pixel only the closest writes;
+// otherwise neighbouring lane pairs merge (the paper's clustered xor/min of size 2).
+// MODE 1 (`dedup`): WGSL has no subgroupPartitionNV, so lanes are partitioned by pixel in rounds:
+// each round takes the smallest pending pixel id, its closest lane writes, its lanes retire;
+// after DEDUP_ROUNDS rounds the remaining lanes write directly (bounded cost on close-ups).
+// EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements).
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+override EARLY_Z: bool = false;
+override MODE: u32 = 0u;
+override DEDUP_ROUNDS: u32 = 4u;
+
+@group(1) @binding(0) var<storage, read_write> framebuffer: array<atomic<u64>>;
+
+fn point_key(depth_bits: u32, color: u32) -> u64 {
+    return (u64(~depth_bits) << 32u) | u64(~color);
+}
+
+@compute @workgroup_size(WG)
+fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    let slot = page_slot(wg, nwg);
+    if slot >= dispatch.page_count {
+        return;
+    }
+    let page_id = page_list[dispatch.list_offset + slot];
+    let page = pages[page_id];
+    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
+    // Every lane runs every round (no early exit) so subgroup operations see the whole subgroup.
+    for (var k = 0u; k < PAGE_SIZE / WG; k++) {
+        let i = k * WG + lid;
+        var pixel = NO_PIXEL;
+        var inv_depth = 0u;
+        var color = 0u;
+        if i < page.count {
+            let s = load_point(page, base + i);
+            let hit = project(s.pos);
+            if hit.pixel != NO_PIXEL {
+                pixel = hit.pixel;
+                inv_depth = ~hit.depth_bits;
+                color = s.color;
+            }
+        }
+        if EARLY_Z && pixel != NO_PIXEL {
+            let key = (u64(inv_depth) << 32u) | u64(~color);
+            if atomicLoad(&framebuffer[pixel]) >= key {
+                pixel = NO_PIXEL;
+            }
+        }
+        if MODE == 0u {
+            let first = subgroupBroadcastFirst(pixel);
+            var best = inv_depth;
+            if subgroupAll(pixel == first) {
+                best = subgroupMax(inv_depth);
+            } else {
+                let other_pixel = subgroupShuffleXor(pixel, 1u);
+                let other_depth = subgroupShuffleXor(inv_depth, 1u);
+                if other_pixel == pixel {
+                    best = max(inv_depth, other_depth);
+                }
+            }
+            if pixel != NO_PIXEL && inv_depth == best {
+                atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+            }
+        } else {
+            var pending = pixel != NO_PIXEL;
+            for (var round = 0u; round < DEDUP_ROUNDS; round++) {
+                if !subgroupAny(pending) {
+                    break;
+                }
+                let leader = subgroupMin(select(NO_PIXEL, pixel, pending));
+                let mine = pending && pixel == leader;
+                let best = subgroupMax(select(0u, inv_depth, mine));
+                if mine {
+                    pending = false;
+                    if inv_depth == best {
+                        atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+                    }
+                }
+            }
+            if pending {
+                atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+            }
+        }
+    }
+}

@@ -1,0 +1,22 @@
+// Shared by the resolve passes: turn a rasterizer's per-pixel buffers into a colour image
+// (alpha 255 where a point landed, 0 where empty) and a linear view-depth image (0 = empty).
+
+struct Screen {
+    size: vec2<u32>,
+    _pad: vec2<u32>,
+}
+
+@group(0) @binding(0) var<uniform> screen: Screen;
+@group(0) @binding(1) var out_color: texture_storage_2d<rgba8unorm, write>;
+@group(0) @binding(2) var out_depth: texture_storage_2d<r32float, write>;
+
+fn write_pixel(xy: vec2<u32>, rgba: u32, depth_bits: u32) {
+    let c = unpack4x8unorm(rgba);
+    textureStore(out_color, xy, vec4<f32>(c.rgb, 1.0));
+    textureStore(out_depth, xy, vec4<f32>(bitcast<f32>(depth_bits), 0.0, 0.0, 0.0));
+}
+
+fn write_empty(xy: vec2<u32>) {
+    textureStore(out_color, xy, vec4<f32>(0.0));
+    textureStore(out_depth, xy, vec4<f32>(0.0));
+}

@@ -1,0 +1,116 @@
+//! The copy kernel: the practical memory bandwidth of this GPU through wgpu, measured in the same
+//! process as the rasterizers so their GB/s can be put in proportion.
+
+use crate::context::GpuContext;
+use crate::raster::grid;
+use crate::shaders;
+use crate::target::map_read;
+use crate::GpuError;
+
+/// Median GB/s (bytes read + bytes written) of copying `bytes` bytes, over `runs` runs.
+/// `None` without timestamp queries.
+pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, runs: u32) -> Result<Option<f64>, GpuError> {
+    if !ctx.caps.timestamps {
+        return Ok(None);
+    }
+    let device = &ctx.device;
+    let bytes =
+        (bytes / 16 * 16).clamp(16, ctx.caps.max_binding.min(ctx.caps.max_buffer) / 16 * 16);
+    let count = (bytes / 16) as u32;
+    let make = |label, usage| {
+        ctx.checked("allocating the copy buffers", || {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            })
+        })
+    };
+    let src = make(
+        "copy src",
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    )?;
+    let dst = make("copy dst", wgpu::BufferUsages::STORAGE)?;
+    let params = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("copy params"),
+        size: 16,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue
+        .write_buffer(&params, 0, bytemuck::cast_slice(&[count, 0, 0, 0]));
+    let module = shaders::module(device, "copy", shaders::COPY);
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("copy"),
+        layout: None,
+        module: &module,
+        entry_point: Some("copy"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("copy"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: src.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: dst.as_entire_binding(),
+            },
+        ],
+    });
+    let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+        label: Some("copy timestamps"),
+        ty: wgpu::QueryType::Timestamp,
+        count: 2,
+    });
+    let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: 16,
+        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: 16,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let period = ctx.queue.get_timestamp_period() as f64;
+    let [x, y] = grid(count.div_ceil(256 * 4));
+    let mut times = Vec::new();
+    // One warm-up run, then the measured ones.
+    for _ in 0..runs.max(1) + 1 {
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("copy"),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: &queries,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        enc.resolve_query_set(&queries, 0..2, &resolve, 0);
+        enc.copy_buffer_to_buffer(&resolve, 0, &readback, 0, 16);
+        ctx.queue.submit([enc.finish()]);
+        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&map_read(ctx, &readback)?);
+        times.push(t[1].saturating_sub(t[0]) as f64 * period);
+    }
+    times.remove(0);
+    times.sort_by(f64::total_cmp);
+    let ns = times[times.len() / 2].max(1.0);
+    Ok(Some(2.0 * bytes as f64 / ns))
+}

@@ -1,0 +1,191 @@
+//! The headless wgpu device: adapter choice, feature detection, limits.
+
+use crate::GpuError;
+use std::sync::{Arc, Mutex};
+
+/// What the chosen adapter can do, decided once at start-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capabilities {
+    /// 64-bit atomicMin/Max: the single-atomic closest-point rasterizers.
+    pub int64_atomics: bool,
+    /// 64-bit atomicAdd/Exchange: HQS1R.
+    pub int64_atomic_add: bool,
+    /// Subgroup operations: `reduce`, `reduce-early-z`, `dedup`.
+    pub subgroups: bool,
+    /// Timestamp queries on pass boundaries: GPU timings.
+    pub timestamps: bool,
+    /// Largest storage-buffer binding (point data beyond it is split over buffers).
+    pub max_binding: u64,
+    pub max_buffer: u64,
+}
+
+/// Which adapter to use: `None` picks the best (discrete GPU first, then integrated, virtual,
+/// CPU; among equals the one with 64-bit atomics); `Some` matches an index of
+/// [`GpuContext::adapters`] or a case-insensitive part of the adapter's name or backend.
+#[derive(Clone, Debug, Default)]
+pub struct AdapterRequest {
+    pub name: Option<String>,
+    /// Ask only for what a WebGPU browser offers (no 64-bit integers, no subgroups): exercises
+    /// the fallback paths on any machine.
+    pub webgpu_baseline: bool,
+}
+
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub caps: Capabilities,
+    /// Errors raised outside an error scope, kept for the next [`GpuContext::checked`] call
+    /// instead of wgpu's default handler, which panics.
+    uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+fn wanted_features() -> wgpu::Features {
+    wgpu::Features::SHADER_INT64
+        | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX
+        | wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS
+        | wgpu::Features::SUBGROUP
+        | wgpu::Features::TIMESTAMP_QUERY
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+/// One line describing an adapter, e.g. `Vulkan, Cpu: llvmpipe (LLVM 15.0.6, 256 bits)`.
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{:?}, {:?}: {}", info.backend, info.device_type, info.name)
+}
+
+impl GpuContext {
+    /// Vulkan/Metal/DX12 unless WGPU_BACKEND says otherwise: probing GL on a headless machine
+    /// only prints EGL warnings, and GL lacks the 64-bit atomics anyway.
+    fn instance() -> wgpu::Instance {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::PRIMARY;
+        wgpu::Instance::new(desc.with_env())
+    }
+
+    /// Every adapter wgpu finds, in enumeration order (the indices `--adapter` accepts).
+    pub fn adapters() -> Vec<wgpu::AdapterInfo> {
+        pollster::block_on(Self::instance().enumerate_adapters(wgpu::Backends::all()))
+            .iter()
+            .map(|a| a.get_info())
+            .collect()
+    }
+
+    /// Opens the requested adapter with every useful feature it has.
+    pub fn new(request: &AdapterRequest) -> Result<Self, GpuError> {
+        let instance = Self::instance();
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let found: Vec<String> = adapters.iter().map(|a| describe(&a.get_info())).collect();
+        let adapter = match &request.name {
+            Some(want) => {
+                let by_index = want
+                    .parse::<usize>()
+                    .ok()
+                    .and_then(|i| adapters.get(i).cloned());
+                by_index.or_else(|| {
+                    let w = want.to_lowercase();
+                    adapters
+                        .iter()
+                        .find(|a| describe(&a.get_info()).to_lowercase().contains(&w))
+                        .cloned()
+                })
+            }
+            None => adapters
+                .iter()
+                .min_by_key(|a| {
+                    let f = a.features();
+                    let atomics = f.contains(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+                    (type_rank(a.get_info().device_type), !atomics)
+                })
+                .cloned(),
+        };
+        let Some(adapter) = adapter else {
+            return Err(GpuError::NoAdapter {
+                wanted: request.name.clone(),
+                found,
+            });
+        };
+        let info = adapter.get_info();
+        let features = if request.webgpu_baseline {
+            adapter.features() & wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            adapter.features() & wanted_features()
+        };
+        // 64-bit atomics are only usable together with 64-bit integers in shaders.
+        let int64 = features.contains(wgpu::Features::SHADER_INT64);
+        // Ask for everything the adapter offers: large bindings decide how point data is split.
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("pointlet"),
+            required_features: features,
+            required_limits: limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::Device(format!("{}: {e}", describe(&info))))?;
+        let caps = Capabilities {
+            int64_atomics: int64 && features.contains(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX),
+            int64_atomic_add: int64
+                && features.contains(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS),
+            subgroups: features.contains(wgpu::Features::SUBGROUP),
+            timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+            max_binding: device.limits().max_storage_buffer_binding_size,
+            max_buffer: device.limits().max_buffer_size,
+        };
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| e.to_string());
+            }
+        }));
+        Ok(Self {
+            device,
+            queue,
+            info,
+            caps,
+            uncaptured,
+        })
+    }
+
+    pub fn describe(&self) -> String {
+        describe(&self.info)
+    }
+
+    /// Blocks until the GPU finished everything submitted so far.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e}")))
+    }
+
+    /// Runs `f` and returns the first validation or out-of-memory error it raised.
+    pub fn checked<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let v = pollster::block_on(validation.pop());
+        let o = pollster::block_on(oom.pop());
+        if let Some(e) = o {
+            return Err(GpuError::OutOfMemory(format!("{what}: {e}")));
+        }
+        if let Some(e) = v {
+            return Err(GpuError::Validation(format!("{what}: {e}")));
+        }
+        if let Some(e) = self.uncaptured.lock().ok().and_then(|mut s| s.take()) {
+            return Err(GpuError::Validation(format!("{what}: {e}")));
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,141 @@
+//! `hw-points`: the hardware point-list baseline, drawing into the same colour/depth layer the
+//! compute resolve writes, so the screen passes treat both alike.
+
+use crate::cloud::{point_group_layout, GpuCloud, PointEncoding};
+use crate::shaders;
+use crate::target::{RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+
+pub(crate) struct HwPointsPipeline {
+    pipeline: wgpu::RenderPipeline,
+}
+
+impl HwPointsPipeline {
+    pub fn new(device: &wgpu::Device, encoding: PointEncoding, page_size: u32) -> Self {
+        let source = format!("{}\n{}", shaders::COMMON, shaders::HW_POINTS);
+        let module = shaders::module(device, "hw-points", &source);
+        let group0 = point_group_layout(device, encoding);
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("hw-points"),
+            bind_group_layouts: &[Some(&group0)],
+            immediate_size: 0,
+        });
+        let full16 = [
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Float32x3,
+                offset: 0,
+                shader_location: 0,
+            },
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Uint32,
+                offset: 12,
+                shader_location: 1,
+            },
+        ];
+        let packed = [wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Uint32x2,
+            offset: 0,
+            shader_location: 0,
+        }];
+        let fine = [wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Uint32,
+            offset: 0,
+            shader_location: 1,
+        }];
+        let vertex = |stride, attributes| {
+            Some(wgpu::VertexBufferLayout {
+                array_stride: stride,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes,
+            })
+        };
+        let (entry, buffers) = match encoding {
+            PointEncoding::Full16 => ("vs_full16", vec![vertex(16, &full16[..])]),
+            PointEncoding::Compact8 => (
+                "vs_compact8",
+                vec![vertex(8, &packed[..]), vertex(4, &fine[..])],
+            ),
+        };
+        let constants = [("PAGE_SIZE", page_size as f64)];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("hw-points"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                buffers: &buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::PointList,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(COLOR_FORMAT.into()), Some(DEPTH_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self { pipeline }
+    }
+
+    pub fn record(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        cloud: &GpuCloud,
+        target: &RenderTarget,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        let color = target.layers[0].color.create_view(&Default::default());
+        let depth = target.layers[0].depth.create_view(&Default::default());
+        let hw_depth = target.hw_depth.create_view(&Default::default());
+        let clear = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hw-points"),
+            color_attachments: &[clear(&color), clear(&depth)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &hw_depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        for chunk in &cloud.chunks {
+            pass.set_bind_group(0, &chunk.bind_group, &[]);
+            pass.set_vertex_buffer(0, chunk.points.slice(..));
+            if let Some(f) = &chunk.fine {
+                pass.set_vertex_buffer(1, f.slice(..));
+            }
+            pass.draw(0..chunk.page_count * cloud.page_size, 0..1);
+        }
+    }
+}

@@ -1,0 +1,325 @@
+//! The rasterizer variants of the compute-shader paper (§3) and their pipelines.
+
+use crate::cloud::{point_group_layout, GpuCloud, PointEncoding};
+use crate::context::Capabilities;
+use crate::shaders;
+use crate::target::RenderTarget;
+
+/// Every way of drawing points, selectable by name (`--raster`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RasterVariant {
+    /// The render pipeline's point-list primitive (the paper's GL_POINTS baseline).
+    HwPoints,
+    /// One 64-bit atomic per point (§3.1).
+    AtomicMin,
+    /// `AtomicMin` + early depth test (§3.2).
+    EarlyZ,
+    /// Subgroup reduction (§3.3).
+    Reduce,
+    ReduceEarlyZ,
+    /// Subgroup deduplication (§3.4, emulated with WGSL subgroup operations).
+    Dedup,
+    /// Depth pass + blend of points within 1 % of the closest (§3.5).
+    Hqs,
+    /// Single 64-bit atomicAdd per point with overflow fallback (§3.5.1).
+    Hqs1r,
+    /// Two 32-bit passes (depth, then colour): for adapters without 64-bit atomics.
+    AtomicMin32,
+}
+
+impl RasterVariant {
+    pub const ALL: [RasterVariant; 9] = [
+        RasterVariant::HwPoints,
+        RasterVariant::AtomicMin,
+        RasterVariant::EarlyZ,
+        RasterVariant::Reduce,
+        RasterVariant::ReduceEarlyZ,
+        RasterVariant::Dedup,
+        RasterVariant::Hqs,
+        RasterVariant::Hqs1r,
+        RasterVariant::AtomicMin32,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RasterVariant::HwPoints => "hw-points",
+            RasterVariant::AtomicMin => "atomic-min",
+            RasterVariant::EarlyZ => "early-z",
+            RasterVariant::Reduce => "reduce",
+            RasterVariant::ReduceEarlyZ => "reduce-early-z",
+            RasterVariant::Dedup => "dedup",
+            RasterVariant::Hqs => "hqs",
+            RasterVariant::Hqs1r => "hqs1r",
+            RasterVariant::AtomicMin32 => "atomic-min-32",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.name() == s)
+    }
+
+    /// Why this variant cannot run on an adapter with `caps`, if it cannot.
+    pub fn unsupported_reason(self, caps: &Capabilities) -> Option<&'static str> {
+        use RasterVariant::*;
+        match self {
+            AtomicMin | EarlyZ if !caps.int64_atomics => {
+                Some("needs 64-bit atomicMin/Max (SHADER_INT64_ATOMIC_MIN_MAX)")
+            }
+            Reduce | ReduceEarlyZ | Dedup if !caps.int64_atomics => {
+                Some("needs 64-bit atomicMin/Max (SHADER_INT64_ATOMIC_MIN_MAX)")
+            }
+            Reduce | ReduceEarlyZ | Dedup if !caps.subgroups => {
+                Some("needs subgroup operations (SUBGROUP)")
+            }
+            Hqs1r if !caps.int64_atomic_add => {
+                Some("needs 64-bit atomicAdd (SHADER_INT64_ATOMIC_ALL_OPS)")
+            }
+            _ => None,
+        }
+    }
+
+    /// The variant to use instead when this one is unsupported: the closest-point variants fall
+    /// back to the two-pass 32-bit path, HQS1R to HQS.
+    pub fn fallback(self, caps: &Capabilities) -> RasterVariant {
+        if self.unsupported_reason(caps).is_none() {
+            return self;
+        }
+        match self {
+            RasterVariant::Hqs1r => RasterVariant::Hqs,
+            RasterVariant::Reduce | RasterVariant::ReduceEarlyZ | RasterVariant::Dedup
+                if caps.int64_atomics =>
+            {
+                RasterVariant::EarlyZ
+            }
+            _ => RasterVariant::AtomicMin32,
+        }
+    }
+
+    /// Which per-pixel buffers the variant writes and the resolve pass reads.
+    pub(crate) fn buffers(self) -> PixelKind {
+        match self {
+            RasterVariant::HwPoints => PixelKind::Hardware,
+            RasterVariant::AtomicMin
+            | RasterVariant::EarlyZ
+            | RasterVariant::Reduce
+            | RasterVariant::ReduceEarlyZ
+            | RasterVariant::Dedup => PixelKind::Key64,
+            RasterVariant::AtomicMin32 => PixelKind::TwoPass32,
+            RasterVariant::Hqs => PixelKind::Hqs,
+            RasterVariant::Hqs1r => PixelKind::Hqs1r,
+        }
+    }
+
+    /// Geometry passes over all points (HQS and the 32-bit path read every point twice).
+    pub fn geometry_passes(self) -> u32 {
+        match self {
+            RasterVariant::Hqs | RasterVariant::Hqs1r | RasterVariant::AtomicMin32 => 2,
+            _ => 1,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum PixelKind {
+    Hardware,
+    Key64,
+    TwoPass32,
+    Hqs,
+    Hqs1r,
+}
+
+impl PixelKind {
+    /// The buffers of group 1, in binding order.
+    pub fn buffers(self, target: &RenderTarget) -> Vec<&wgpu::Buffer> {
+        let p = &target.pixels;
+        match self {
+            PixelKind::Hardware => vec![],
+            PixelKind::Key64 => vec![&p.key64],
+            PixelKind::TwoPass32 => vec![&p.depth32, &p.color32],
+            PixelKind::Hqs => vec![&p.depth32, &p.sums],
+            PixelKind::Hqs1r => vec![&p.depth32, &p.packed, &p.overflow],
+        }
+    }
+}
+
+/// A layout of `n` storage buffers at bindings 0..n.
+pub(crate) fn storage_layout(
+    device: &wgpu::Device,
+    n: usize,
+    read_only: bool,
+) -> wgpu::BindGroupLayout {
+    let entries: Vec<_> = (0..n as u32)
+        .map(|binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("pixel buffers"),
+        entries: &entries,
+    })
+}
+
+pub(crate) fn storage_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("pixel buffers"),
+        layout,
+        entries: &entries,
+    })
+}
+
+/// One compute pipeline that runs over every page, with the pixel buffers it writes.
+pub(crate) struct PointStage {
+    pub pipeline: wgpu::ComputePipeline,
+    /// Indices into the variant's pixel buffers (group 1 is built from these).
+    pub buffers: Vec<usize>,
+    pub group1_layout: wgpu::BindGroupLayout,
+}
+
+/// The compute stages of one variant, in order.
+pub(crate) struct RasterPipelines {
+    pub stages: Vec<PointStage>,
+}
+
+pub(crate) const WORKGROUP: u32 = 256;
+
+impl RasterPipelines {
+    pub fn new(
+        device: &wgpu::Device,
+        variant: RasterVariant,
+        encoding: PointEncoding,
+        page_size: u32,
+    ) -> Self {
+        let group0 = point_group_layout(device, encoding);
+        let stage =
+            |label: &str, body: &str, entry: &str, consts: &[(&str, f64)], buffers: Vec<usize>| {
+                let source = shaders::point_pass(encoding, body);
+                let module = shaders::module(device, label, &source);
+                let group1_layout = storage_layout(device, buffers.len(), false);
+                let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(label),
+                    bind_group_layouts: &[Some(&group0), Some(&group1_layout)],
+                    immediate_size: 0,
+                });
+                let mut constants = vec![("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)];
+                constants.extend_from_slice(consts);
+                let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        zero_initialize_workgroup_memory: false,
+                    },
+                    cache: None,
+                });
+                PointStage {
+                    pipeline,
+                    buffers,
+                    group1_layout,
+                }
+            };
+        let depth = || {
+            stage(
+                "depth pass",
+                shaders::RASTER_DEPTH,
+                "depth_pass",
+                &[],
+                vec![0],
+            )
+        };
+        let stages = match variant {
+            RasterVariant::HwPoints => vec![],
+            RasterVariant::AtomicMin | RasterVariant::EarlyZ => vec![stage(
+                variant.name(),
+                shaders::RASTER_MIN64,
+                "raster",
+                &[("EARLY_Z", (variant == RasterVariant::EarlyZ) as u32 as f64)],
+                vec![0],
+            )],
+            RasterVariant::Reduce | RasterVariant::ReduceEarlyZ | RasterVariant::Dedup => {
+                let early = variant != RasterVariant::Reduce;
+                let mode = (variant == RasterVariant::Dedup) as u32;
+                vec![stage(
+                    variant.name(),
+                    shaders::RASTER_SUBGROUP,
+                    "raster",
+                    &[("EARLY_Z", early as u32 as f64), ("MODE", mode as f64)],
+                    vec![0],
+                )]
+            }
+            RasterVariant::AtomicMin32 => vec![
+                depth(),
+                stage(
+                    "colour pass",
+                    shaders::RASTER_MIN32,
+                    "color_pass",
+                    &[],
+                    vec![0, 1],
+                ),
+            ],
+            RasterVariant::Hqs => vec![
+                depth(),
+                stage("hqs", shaders::RASTER_HQS, "accumulate", &[], vec![0, 1]),
+            ],
+            RasterVariant::Hqs1r => vec![
+                depth(),
+                stage(
+                    "hqs1r",
+                    shaders::RASTER_HQS1R,
+                    "accumulate",
+                    &[],
+                    vec![0, 1, 2],
+                ),
+            ],
+        };
+        Self { stages }
+    }
+
+    /// Records every stage over every chunk of `cloud` into one compute pass.
+    pub fn record(
+        &self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        cloud: &GpuCloud,
+        pixel_buffers: &[&wgpu::Buffer],
+    ) {
+        for stage in &self.stages {
+            let mine: Vec<&wgpu::Buffer> =
+                stage.buffers.iter().map(|i| pixel_buffers[*i]).collect();
+            let group1 = storage_group(device, &stage.group1_layout, &mine);
+            pass.set_pipeline(&stage.pipeline);
+            pass.set_bind_group(1, &group1, &[]);
+            for chunk in &cloud.chunks {
+                pass.set_bind_group(0, &chunk.bind_group, &[]);
+                let [x, y] = grid(chunk.page_count);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+    }
+}
+
+/// A 2-D workgroup grid with at least `groups` groups (65 535 per dimension at most).
+pub(crate) fn grid(groups: u32) -> [u32; 2] {
+    let x = groups.clamp(1, 65_535);
+    [x, groups.div_ceil(x).max(1)]
+}

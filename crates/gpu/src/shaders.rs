@@ -1,0 +1,43 @@
+//! WGSL sources, included at build time. WGSL has no `#include`, so a module is assembled from
+//! the shared header (common.wgsl), the point fetch of the encoding, and the pass body.
+
+use crate::cloud::PointEncoding;
+
+pub const COMMON: &str = include_str!("../shaders/common.wgsl");
+pub const FETCH_FULL16: &str = include_str!("../shaders/fetch_full16.wgsl");
+pub const FETCH_COMPACT8: &str = include_str!("../shaders/fetch_compact8.wgsl");
+pub const RASTER_MIN64: &str = include_str!("../shaders/raster_min64.wgsl");
+pub const RASTER_SUBGROUP: &str = include_str!("../shaders/raster_subgroup.wgsl");
+pub const RASTER_DEPTH: &str = include_str!("../shaders/raster_depth.wgsl");
+pub const RASTER_MIN32: &str = include_str!("../shaders/raster_min32.wgsl");
+pub const RASTER_HQS: &str = include_str!("../shaders/raster_hqs.wgsl");
+pub const RASTER_HQS1R: &str = include_str!("../shaders/raster_hqs1r.wgsl");
+pub const HW_POINTS: &str = include_str!("../shaders/hw_points.wgsl");
+pub const RESOLVE_COMMON: &str = include_str!("../shaders/resolve_common.wgsl");
+pub const RESOLVE_MIN64: &str = include_str!("../shaders/resolve_min64.wgsl");
+pub const RESOLVE_MIN32: &str = include_str!("../shaders/resolve_min32.wgsl");
+pub const RESOLVE_HQS: &str = include_str!("../shaders/resolve_hqs.wgsl");
+pub const RESOLVE_HQS1R: &str = include_str!("../shaders/resolve_hqs1r.wgsl");
+pub const FILL: &str = include_str!("../shaders/fill.wgsl");
+pub const COMPOSE: &str = include_str!("../shaders/compose.wgsl");
+pub const COPY: &str = include_str!("../shaders/copy.wgsl");
+
+/// A point pass: header + fetch for `encoding` + body.
+pub fn point_pass(encoding: PointEncoding, body: &str) -> String {
+    let fetch = match encoding {
+        PointEncoding::Full16 => FETCH_FULL16,
+        PointEncoding::Compact8 => FETCH_COMPACT8,
+    };
+    format!("{COMMON}\n{fetch}\n{body}")
+}
+
+pub fn resolve_pass(body: &str) -> String {
+    format!("{RESOLVE_COMMON}\n{body}")
+}
+
+pub fn module(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    })
+}

@@ -1,0 +1,260 @@
+//! Everything a frame is drawn into: the rasterizers' per-pixel buffers, the intermediate images
+//! of the screen passes and the final RGBA8 image, plus the timestamp queries of a frame.
+
+use crate::context::GpuContext;
+use crate::GpuError;
+
+/// Per-pixel buffers of the compute rasterizers (cleared to 0 = empty before each frame).
+pub(crate) struct PixelBuffers {
+    /// 64-bit closest-point keys.
+    pub key64: wgpu::Buffer,
+    /// ~depth bits (32-bit rasterizers and HQS depth pass).
+    pub depth32: wgpu::Buffer,
+    /// ~rgba of the 32-bit fallback.
+    pub color32: wgpu::Buffer,
+    /// HQS: r, g, b, count per pixel.
+    pub sums: wgpu::Buffer,
+    /// HQS1R: 16-16-16-16 word per pixel.
+    pub packed: wgpu::Buffer,
+    /// HQS1R: two 64-bit fallback words per pixel.
+    pub overflow: wgpu::Buffer,
+}
+
+/// An image and its linear view depth (0 = empty pixel).
+pub(crate) struct Layer {
+    pub color: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+pub struct RenderTarget {
+    pub width: u32,
+    pub height: u32,
+    pub(crate) pixels: PixelBuffers,
+    /// Raster output (resolve or hw-points) and the hole-filled copy.
+    pub(crate) layers: [Layer; 2],
+    /// Depth attachment of the hardware baseline.
+    pub(crate) hw_depth: wgpu::Texture,
+    pub(crate) output: wgpu::Texture,
+    pub(crate) timer: Option<FrameTimer>,
+}
+
+pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+
+impl RenderTarget {
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self, GpuError> {
+        let max = ctx.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(GpuError::InvalidInput(format!(
+                "image size {width}×{height} must be between 1 and {max} pixels per side"
+            )));
+        }
+        let device = &ctx.device;
+        let px = width as u64 * height as u64;
+        let buffer = |label: &str, bytes_per_pixel: u64| {
+            ctx.checked("allocating the framebuffer", || {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: px * bytes_per_pixel,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        let pixels = PixelBuffers {
+            key64: buffer("keys", 8)?,
+            depth32: buffer("depth", 4)?,
+            color32: buffer("colour", 4)?,
+            sums: buffer("hqs sums", 16)?,
+            packed: buffer("hqs1r words", 8)?,
+            overflow: buffer("hqs1r overflow", 16)?,
+        };
+        let texture = |label: &str, format, extra: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | extra,
+                view_formats: &[],
+            })
+        };
+        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let layers = [
+            Layer {
+                color: texture("raster colour", COLOR_FORMAT, attach),
+                depth: texture("raster depth", DEPTH_FORMAT, attach),
+            },
+            Layer {
+                color: texture("filled colour", COLOR_FORMAT, wgpu::TextureUsages::empty()),
+                depth: texture("filled depth", DEPTH_FORMAT, wgpu::TextureUsages::empty()),
+            },
+        ];
+        let hw_depth = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("hw depth"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Depth32Float,
+            usage: attach,
+            view_formats: &[],
+        });
+        let output = texture(
+            "image",
+            COLOR_FORMAT,
+            wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+        );
+        let timer = ctx.caps.timestamps.then(|| FrameTimer::new(ctx));
+        Ok(Self {
+            width,
+            height,
+            pixels,
+            layers,
+            hw_depth,
+            output,
+            timer,
+        })
+    }
+
+    /// The final image (RGBA8), for presenting or copying.
+    pub fn output(&self) -> &wgpu::Texture {
+        &self.output
+    }
+
+    /// Reads the final image back: `width * height * 4` bytes, rows top to bottom.
+    pub fn read_rgba(&self, ctx: &GpuContext) -> Result<Vec<u8>, GpuError> {
+        read_texture(ctx, &self.output, 4)
+    }
+
+    /// Reads the raster layer's linear depth (0 = empty), for tests and picking.
+    pub fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        let bytes = read_texture(ctx, &self.layers[0].depth, 4)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+}
+
+/// Copies a texture into a mappable buffer and returns its tightly packed bytes.
+pub(crate) fn read_texture(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, GpuError> {
+    let (w, h) = (texture.width(), texture.height());
+    let row = w * bytes_per_pixel;
+    let padded =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: padded as u64 * h as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        texture.size(),
+    );
+    ctx.queue.submit([enc.finish()]);
+    let bytes = map_read(ctx, &buffer)?;
+    let mut out = Vec::with_capacity((row * h) as usize);
+    for y in 0..h as usize {
+        let start = y * padded as usize;
+        out.extend_from_slice(&bytes[start..start + row as usize]);
+    }
+    Ok(out)
+}
+
+/// Maps a MAP_READ buffer and copies its contents out.
+pub(crate) fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    rx.recv()
+        .map_err(|_| GpuError::Device("buffer mapping was dropped".into()))?
+        .map_err(|e| GpuError::Device(format!("mapping a buffer for reading: {e}")))?;
+    let out = slice
+        .get_mapped_range()
+        .map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e}")))?
+        .to_vec();
+    buffer.unmap();
+    Ok(out)
+}
+
+/// Timestamps at the borders of a frame's passes: raster start/end, screen start/end.
+pub(crate) struct FrameTimer {
+    pub queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f64,
+}
+
+pub(crate) const TIMESTAMPS: u32 = 4;
+
+impl FrameTimer {
+    fn new(ctx: &GpuContext) -> Self {
+        let device = &ctx.device;
+        let bytes = TIMESTAMPS as u64 * 8;
+        Self {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("frame timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: TIMESTAMPS,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps readback"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            period_ns: ctx.queue.get_timestamp_period() as f64,
+        }
+    }
+
+    pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.resolve_query_set(&self.queries, 0..TIMESTAMPS, &self.resolve, 0);
+        enc.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, TIMESTAMPS as u64 * 8);
+    }
+
+    /// (raster ms, screen ms) of the last submitted frame.
+    pub fn read(&self, ctx: &GpuContext) -> Result<(f64, f64), GpuError> {
+        let bytes = map_read(ctx, &self.readback)?;
+        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
+        let ms = |a: u64, b: u64| b.saturating_sub(a) as f64 * self.period_ns * 1e-6;
+        Ok((ms(t[0], t[1]), ms(t[2], t[3])))
+    }
+}

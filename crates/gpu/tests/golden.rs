@@ -1,0 +1,261 @@
+//! Golden tests: GPU images against the CPU reference rasterizer.
+
+mod common;
+use common::*;
+use pointlet_gpu::reference;
+use pointlet_gpu::{PointEncoding, PointSet, RasterVariant, ScreenSettings};
+
+const BLACK: [u8; 4] = [0, 0, 0, 255];
+
+fn closest_reference(positions: &[[f64; 3]], colors: &[u32]) -> Vec<u8> {
+    let px = reference::closest_points(positions, colors, &camera(), W, H);
+    let colors: Vec<Option<u32>> = px.iter().map(|p| p.map(|(_, c)| c)).collect();
+    reference::image(&colors, BLACK)
+}
+
+#[test]
+fn closest_point_variants_match_the_reference_exactly() {
+    let ctx = context();
+    let scene = layered_scene(1, true);
+    for encoding in PointEncoding::ALL {
+        let drawn = drawn_positions(&ctx, &scene.set, encoding, &camera());
+        let expected = closest_reference(&drawn, &scene.set.colors);
+        let filled = expected.chunks(4).filter(|p| *p != BLACK).count();
+        assert!(filled > 1000, "the scene covers most pixels: {filled}");
+        for variant in [
+            RasterVariant::AtomicMin,
+            RasterVariant::EarlyZ,
+            RasterVariant::Reduce,
+            RasterVariant::ReduceEarlyZ,
+            RasterVariant::Dedup,
+            RasterVariant::AtomicMin32,
+        ] {
+            let got = render(
+                &ctx,
+                &scene.set,
+                encoding,
+                variant,
+                ScreenSettings::default(),
+                &camera(),
+            );
+            let (max, n) = diff(&got, &expected);
+            assert_eq!(
+                (max, n),
+                (0, 0),
+                "{} / {}: {n} pixels differ (max {max})",
+                variant.name(),
+                encoding.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn hardware_points_draw_the_same_closest_points() {
+    let ctx = context();
+    // No exact duplicates: the hardware depth test breaks ties by draw order, not colour.
+    let scene = layered_scene(2, false);
+    let expected = closest_reference(&scene.set.positions, &scene.set.colors);
+    let got = render(
+        &ctx,
+        &scene.set,
+        PointEncoding::Full16,
+        RasterVariant::HwPoints,
+        ScreenSettings::default(),
+        &camera(),
+    );
+    assert_eq!(diff(&got, &expected), (0, 0));
+}
+
+/// Clusters inside single pixels: three points within 0.4 % of the closest depth blend, one
+/// 5 % behind does not; `crowd` pixels get `crowd` points to exercise HQS1R's overflow path.
+fn blend_scene(crowd: usize) -> PointSet {
+    let cam = camera();
+    let mut rng = pointlet_core::shuffle::SplitMix64::new(7);
+    let mut set = PointSet::default();
+    for y in (0..H).step_by(2) {
+        for x in (0..W).step_by(2) {
+            let d = 25.0 + rng.unit_f64() * 30.0;
+            let n = if (x + y) % 10 == 0 { crowd } else { 3 };
+            for k in 0..n {
+                let u = x as f64 + 0.5 + (rng.unit_f64() - 0.5) * 0.5;
+                let v = y as f64 + 0.5 + (rng.unit_f64() - 0.5) * 0.5;
+                let depth = d * (1.0 + 0.002 * (k % 3) as f64);
+                set.positions.push(unproject(&cam, u, v, depth));
+                set.colors.push(rng.next_u64() as u32 | 0xff00_0000);
+            }
+            set.positions
+                .push(unproject(&cam, x as f64 + 0.5, y as f64 + 0.5, d * 1.05));
+            set.colors.push(0xff00_00ff);
+        }
+    }
+    set
+}
+
+#[test]
+fn hqs_variants_match_the_blending_reference() {
+    let ctx = context();
+    for crowd in [3, 300, 1000] {
+        let set = blend_scene(crowd);
+        let avg = reference::blended(&set.positions, &set.colors, &camera(), W, H, 1.01);
+        let expected = reference::image(&avg, BLACK);
+        for variant in [RasterVariant::Hqs, RasterVariant::Hqs1r] {
+            let got = render(
+                &ctx,
+                &set,
+                PointEncoding::Full16,
+                variant,
+                ScreenSettings::default(),
+                &camera(),
+            );
+            let (max, n) = diff(&got, &expected);
+            assert!(
+                max <= 1,
+                "{} with {crowd} points per crowded pixel: {n} pixels differ, max {max}",
+                variant.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn hole_filling_takes_the_mean_of_non_empty_neighbours() {
+    let ctx = context();
+    let scene = layered_scene(3, false);
+    let radius = 1u32;
+    let px = reference::closest_points(&scene.set.positions, &scene.set.colors, &camera(), W, H);
+    let colors: Vec<Option<u32>> = px.iter().map(|p| p.map(|(_, c)| c)).collect();
+    let mut filled = colors.clone();
+    for y in 0..H as i64 {
+        for x in 0..W as i64 {
+            if colors[(y * W as i64 + x) as usize].is_some() {
+                continue;
+            }
+            let mut sum = [0u32; 3];
+            let mut n = 0;
+            for dy in -(radius as i64)..=radius as i64 {
+                for dx in -(radius as i64)..=radius as i64 {
+                    let (qx, qy) = (x + dx, y + dy);
+                    if qx < 0 || qy < 0 || qx >= W as i64 || qy >= H as i64 {
+                        continue;
+                    }
+                    if let Some(c) = colors[(qy * W as i64 + qx) as usize] {
+                        for (k, s) in sum.iter_mut().enumerate() {
+                            *s += (c >> (8 * k)) & 0xff;
+                        }
+                        n += 1;
+                    }
+                }
+            }
+            if n > 0 {
+                let mean = |k: usize| (sum[k] as f32 / n as f32).round() as u32;
+                filled[(y * W as i64 + x) as usize] = Some(mean(0) | mean(1) << 8 | mean(2) << 16);
+            }
+        }
+    }
+    let expected = reference::image(&filled, BLACK);
+    let got = render(
+        &ctx,
+        &scene.set,
+        PointEncoding::Full16,
+        RasterVariant::EarlyZ,
+        ScreenSettings {
+            fill_radius: radius,
+            ..Default::default()
+        },
+        &camera(),
+    );
+    let (max, n) = diff(&got, &expected);
+    assert!(max <= 1, "{n} pixels differ, max {max}");
+    let before = colors.iter().filter(|c| c.is_none()).count();
+    let after = filled.iter().filter(|c| c.is_none()).count();
+    assert!(
+        after < before / 2,
+        "filling closes most holes: {before} → {after}"
+    );
+}
+
+#[test]
+fn eye_dome_lighting_darkens_only_behind_depth_edges() {
+    let ctx = context();
+    let cam = camera();
+    // A far wall of one colour with a near square in front of its centre.
+    let mut set = PointSet::default();
+    for y in 0..H {
+        for x in 0..W {
+            let near = (20..44).contains(&x) && (14..34).contains(&y);
+            let d = if near { 20.0 } else { 40.0 };
+            set.positions
+                .push(unproject(&cam, x as f64 + 0.5, y as f64 + 0.5, d));
+            set.colors.push(0xff80_8080);
+        }
+    }
+    let plain = render(
+        &ctx,
+        &set,
+        PointEncoding::Full16,
+        RasterVariant::EarlyZ,
+        ScreenSettings::default(),
+        &cam,
+    );
+    let edl = render(
+        &ctx,
+        &set,
+        PointEncoding::Full16,
+        RasterVariant::EarlyZ,
+        ScreenSettings {
+            edl: Some(pointlet_gpu::EdlSettings {
+                strength: 1.0,
+                radius: 1.0,
+            }),
+            ..Default::default()
+        },
+        &cam,
+    );
+    let at = |img: &[u8], x: u32, y: u32| img[((y * W + x) * 4) as usize];
+    // Far pixels next to the near square are darkened; flat areas and the square are not.
+    assert!(
+        at(&edl, 19, 24) < at(&plain, 19, 24) / 2,
+        "edge behind the square"
+    );
+    assert_eq!(at(&edl, 5, 5), at(&plain, 5, 5), "flat far wall");
+    assert_eq!(at(&edl, 30, 24), at(&plain, 30, 24), "flat near square");
+    assert_eq!(
+        at(&edl, 20, 24),
+        at(&plain, 20, 24),
+        "the near side of the edge"
+    );
+}
+
+#[test]
+fn without_64_bit_atomics_the_two_pass_path_draws_the_same_image() {
+    let ctx = pointlet_gpu::GpuContext::new(&pointlet_gpu::AdapterRequest {
+        webgpu_baseline: true,
+        ..Default::default()
+    })
+    .expect("adapter");
+    assert!(!ctx.caps.int64_atomics && !ctx.caps.subgroups);
+    for v in [
+        RasterVariant::AtomicMin,
+        RasterVariant::Dedup,
+        RasterVariant::Hqs1r,
+    ] {
+        assert!(v.unsupported_reason(&ctx.caps).is_some(), "{}", v.name());
+    }
+    assert_eq!(
+        RasterVariant::ReduceEarlyZ.fallback(&ctx.caps),
+        RasterVariant::AtomicMin32
+    );
+    assert_eq!(RasterVariant::Hqs1r.fallback(&ctx.caps), RasterVariant::Hqs);
+    let scene = layered_scene(4, true);
+    let expected = closest_reference(&scene.set.positions, &scene.set.colors);
+    let got = render(
+        &ctx,
+        &scene.set,
+        PointEncoding::Full16,
+        RasterVariant::AtomicMin32,
+        ScreenSettings::default(),
+        &camera(),
+    );
+    assert_eq!(diff(&got, &expected), (0, 0));
+}
