@@ -4,7 +4,9 @@
 pub mod aabb;
 pub mod camera;
 pub mod codes;
+pub mod color;
 pub mod lod;
+pub mod order;
 pub mod partition;
 pub mod points;
 pub mod shuffle;

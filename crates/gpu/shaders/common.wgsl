@@ -1,17 +1,26 @@
-// Shared by every point pass: page table, per-frame and per-dispatch parameters, projection.
-// Points live in fixed-size pages; a page's points are stored relative to the page origin and the
-// origin is re-expressed relative to the eye every frame on the CPU in f64 (camera-relative
+// Shared by every point pass: draw entries, per-frame and per-dispatch parameters, projection.
+// Points live in fixed-size pages of PAGE_SIZE points; a draw entry names a page and a range of
+// its points plus a DrawInfo whose origin was made relative to the eye in f64 (camera-relative
 // rendering, WebGPU paper §5), so clip = view_proj · (origin + local) never sees large numbers.
+// Every module that includes this declares `override PAGE_SIZE: u32`.
 
-struct Page {
-    // Page origin minus the eye, in f32 (subtracted in f64 on the CPU).
+// Where a drawn range of points comes from: an origin (minus the eye, in f32) and, for the
+// compact encoding, one quantization step per axis. One per page (static clouds) or per
+// pointlet (virtualized rendering).
+struct DrawInfo {
     origin: vec3<f32>,
-    // Points stored in the page (≤ PAGE_SIZE).
-    count: u32,
-    // Compact layout: size of one quantization step per axis; unused by the 16-byte layout.
-    step: vec3<f32>,
-    // Bit 0: compact layout reads the fine position word too (coarse step too large on screen).
+    // Bit 0: compact encoding reads the fine position word too (coarse step too large on screen).
     flags: u32,
+    step: vec3<f32>,
+    _pad: u32,
+}
+
+// One unit of raster work, one workgroup: points first..first+count of the page in `slot`.
+struct DrawEntry {
+    slot: u32,
+    info: u32,
+    first: u32,
+    count: u32,
 }
 
 struct Frame {
@@ -23,20 +32,22 @@ struct Frame {
     _pad: u32,
 }
 
-// One dispatch covers the pages of one point-buffer chunk listed in page_list.
+// One dispatch covers the entries of one point-buffer chunk; their number is read from
+// entry_counts so the list can be built on the GPU and dispatched indirectly.
 struct Dispatch {
-    first_page: u32,
+    first_slot: u32,
     list_offset: u32,
-    page_count: u32,
+    chunk: u32,
     _pad: u32,
 }
 
 const NO_PIXEL: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<storage, read> pages: array<Page>;
-@group(0) @binding(2) var<storage, read> page_list: array<u32>;
+@group(0) @binding(1) var<storage, read> infos: array<DrawInfo>;
+@group(0) @binding(2) var<storage, read> entries: array<DrawEntry>;
 @group(0) @binding(3) var<uniform> dispatch: Dispatch;
+@group(0) @binding(6) var<storage, read> entry_counts: array<u32>;
 
 struct Hit {
     pixel: u32,
@@ -58,7 +69,22 @@ fn project(p: vec3<f32>) -> Hit {
     return Hit(y * frame.size.x + x, bitcast<u32>(c.w));
 }
 
-// Index of the page this workgroup draws (2-D dispatch: 65 535 groups per dimension at most).
-fn page_slot(wg: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return wg.x + wg.y * nwg.x;
+struct Work {
+    valid: bool,
+    info: DrawInfo,
+    // Index of the page's first point in this dispatch's point buffer.
+    base: u32,
+    first: u32,
+    end: u32,
+}
+
+// The entry this workgroup draws (2-D dispatch: 65 535 groups per dimension at most).
+fn work_for(wg: vec3<u32>, nwg: vec3<u32>) -> Work {
+    let k = wg.x + wg.y * nwg.x;
+    if k >= entry_counts[dispatch.chunk] {
+        return Work(false, DrawInfo(vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u), 0u, 0u, 0u);
+    }
+    let e = entries[dispatch.list_offset + k];
+    return Work(true, infos[e.info], (e.slot - dispatch.first_slot) * PAGE_SIZE, e.first,
+                e.first + e.count);
 }

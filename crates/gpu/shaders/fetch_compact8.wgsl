@@ -15,12 +15,12 @@ fn unpack10(w: u32) -> vec3<u32> {
     return vec3<u32>(w & 0x3ffu, (w >> 10u) & 0x3ffu, (w >> 20u) & 0x3ffu);
 }
 
-fn load_point(page: Page, index: u32) -> Sample {
+fn load_point(info: DrawInfo, index: u32) -> Sample {
     let v = points[index];
     // Without the fine word, a point sits in the middle of its coarse cell.
     var q = vec3<f32>(unpack10(v.x) * 1024u) + vec3<f32>(512.0);
-    if (page.flags & 1u) != 0u {
+    if (info.flags & 1u) != 0u {
         q = vec3<f32>(unpack10(v.x) * 1024u + unpack10(fine[index])) + vec3<f32>(0.5);
     }
-    return Sample(page.origin + q * page.step, v.y);
+    return Sample(info.origin + q * info.step, v.y);
 }

@@ -17,15 +17,12 @@ fn point_key(depth_bits: u32, color: u32) -> u64 {
 @compute @workgroup_size(WG)
 fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) lid: u32) {
-    let slot = page_slot(wg, nwg);
-    if slot >= dispatch.page_count {
+    let w = work_for(wg, nwg);
+    if !w.valid {
         return;
     }
-    let page_id = page_list[dispatch.list_offset + slot];
-    let page = pages[page_id];
-    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
-    for (var i = lid; i < page.count; i += WG) {
-        let s = load_point(page, base + i);
+    for (var i = w.first + lid; i < w.end; i += WG) {
+        let s = load_point(w.info, w.base + i);
         let hit = project(s.pos);
         if hit.pixel == NO_PIXEL {
             continue;

@@ -21,21 +21,19 @@ fn point_key(depth_bits: u32, color: u32) -> u64 {
 @compute @workgroup_size(WG)
 fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) lid: u32) {
-    let slot = page_slot(wg, nwg);
-    if slot >= dispatch.page_count {
+    let w = work_for(wg, nwg);
+    if !w.valid {
         return;
     }
-    let page_id = page_list[dispatch.list_offset + slot];
-    let page = pages[page_id];
-    let base = (page_id - dispatch.first_page) * PAGE_SIZE;
     // Every lane runs every round (no early exit) so subgroup operations see the whole subgroup.
-    for (var k = 0u; k < PAGE_SIZE / WG; k++) {
-        let i = k * WG + lid;
+    let rounds = (w.end - w.first + WG - 1u) / WG;
+    for (var k = 0u; k < rounds; k++) {
+        let i = w.first + k * WG + lid;
         var pixel = NO_PIXEL;
         var inv_depth = 0u;
         var color = 0u;
-        if i < page.count {
-            let s = load_point(page, base + i);
+        if i < w.end {
+            let s = load_point(w.info, w.base + i);
             let hit = project(s.pos);
             if hit.pixel != NO_PIXEL {
                 pixel = hit.pixel;

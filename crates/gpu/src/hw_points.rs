@@ -1,8 +1,9 @@
 //! `hw-points`: the hardware point-list baseline, drawing into the same colour/depth layer the
 //! compute resolve writes, so the screen passes treat both alike.
 
-use crate::cloud::{point_group_layout, GpuCloud, PointEncoding};
+use crate::cloud::GpuCloud;
 use crate::shaders;
+use crate::storage::{point_group_layout, PointEncoding};
 use crate::target::{RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
 
 pub(crate) struct HwPointsPipeline {
@@ -129,13 +130,13 @@ impl HwPointsPipeline {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.pipeline);
-        for chunk in &cloud.chunks {
+        for chunk in &cloud.storage.chunks {
             pass.set_bind_group(0, &chunk.bind_group, &[]);
             pass.set_vertex_buffer(0, chunk.points.slice(..));
             if let Some(f) = &chunk.fine {
                 pass.set_vertex_buffer(1, f.slice(..));
             }
-            pass.draw(0..chunk.page_count * cloud.page_size, 0..1);
+            pass.draw(0..chunk.slots * cloud.page_size, 0..1);
         }
     }
 }

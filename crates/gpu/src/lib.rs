@@ -11,16 +11,19 @@ pub mod reference;
 mod renderer;
 mod screen;
 mod shaders;
+mod storage;
 mod target;
 
 pub use bandwidth::copy_bandwidth;
-pub use cloud::{
-    decode_compact, quantize_compact, GpuCloud, PageMeta, PointEncoding, PointSet, COMPACT_STEPS,
-};
+pub use cloud::{GpuCloud, PageMeta, PointSet};
 pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
 pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use screen::{EdlSettings, ScreenSettings};
+pub use storage::{
+    compact_step, decode_compact, encode_points, needs_fine, quantize_compact, PointEncoding,
+    COMPACT_STEPS,
+};
 pub use target::RenderTarget;
 
 use thiserror::Error;

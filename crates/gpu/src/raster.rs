@@ -1,8 +1,9 @@
 //! The rasterizer variants of the compute-shader paper (§3) and their pipelines.
 
-use crate::cloud::{point_group_layout, GpuCloud, PointEncoding};
+use crate::cloud::GpuCloud;
 use crate::context::Capabilities;
 use crate::shaders;
+use crate::storage::{point_group_layout, PointEncoding};
 use crate::target::RenderTarget;
 
 /// Every way of drawing points, selectable by name (`--raster`).
@@ -309,9 +310,9 @@ impl RasterPipelines {
             let group1 = storage_group(device, &stage.group1_layout, &mine);
             pass.set_pipeline(&stage.pipeline);
             pass.set_bind_group(1, &group1, &[]);
-            for chunk in &cloud.chunks {
+            for chunk in &cloud.storage.chunks {
                 pass.set_bind_group(0, &chunk.bind_group, &[]);
-                let [x, y] = grid(chunk.page_count);
+                let [x, y] = grid(chunk.slots);
                 pass.dispatch_workgroups(x, y, 1);
             }
         }

@@ -1,10 +1,11 @@
 //! One frame: raster (a compute variant or the hardware baseline) → screen passes → image.
 
-use crate::cloud::{GpuCloud, PointEncoding};
+use crate::cloud::GpuCloud;
 use crate::context::GpuContext;
 use crate::hw_points::HwPointsPipeline;
 use crate::raster::{RasterPipelines, RasterVariant};
 use crate::screen::{ScreenPasses, ScreenSettings};
+use crate::storage::PointEncoding;
 use crate::target::RenderTarget;
 use crate::GpuError;
 use pointlet_core::Camera;

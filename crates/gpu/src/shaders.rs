@@ -1,7 +1,7 @@
 //! WGSL sources, included at build time. WGSL has no `#include`, so a module is assembled from
 //! the shared header (common.wgsl), the point fetch of the encoding, and the pass body.
 
-use crate::cloud::PointEncoding;
+use crate::storage::PointEncoding;
 
 pub const COMMON: &str = include_str!("../shaders/common.wgsl");
 pub const FETCH_FULL16: &str = include_str!("../shaders/fetch_full16.wgsl");

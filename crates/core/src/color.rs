@@ -1,0 +1,280 @@
+//! Attribute colouring: turns a point attribute into the RGBA8 word the rasterizers draw
+//! (red in the low byte). The viewer switches between these; render/bench use one.
+
+use crate::PointBatch;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ColorMode {
+    Rgb,
+    Intensity,
+    Elevation,
+    Classification,
+    ReturnNumber,
+    PointSourceId,
+    GpsTime,
+}
+
+impl ColorMode {
+    pub const ALL: [ColorMode; 7] = [
+        ColorMode::Rgb,
+        ColorMode::Intensity,
+        ColorMode::Elevation,
+        ColorMode::Classification,
+        ColorMode::ReturnNumber,
+        ColorMode::PointSourceId,
+        ColorMode::GpsTime,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ColorMode::Rgb => "rgb",
+            ColorMode::Intensity => "intensity",
+            ColorMode::Elevation => "elevation",
+            ColorMode::Classification => "classification",
+            ColorMode::ReturnNumber => "return-number",
+            ColorMode::PointSourceId => "point-source-id",
+            ColorMode::GpsTime => "gps-time",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == s)
+    }
+}
+
+/// How values map to colours: the range (and gamma) of scalar attributes, and whether RGB is
+/// stored as 8-bit values in LAS's 16-bit fields (common in the wild).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColorScale {
+    pub mode: ColorMode,
+    pub range: [f64; 2],
+    pub gamma: f64,
+    pub rgb_8bit: bool,
+    pub ramp: Ramp,
+}
+
+impl ColorScale {
+    /// A scale whose ranges come from a sample of the data (typically the first batch), with
+    /// 1 % / 99 % percentiles so outliers do not flatten the picture.
+    pub fn fit(mode: ColorMode, sample: &PointBatch, z_range: [f64; 2]) -> Self {
+        let pct = |mut v: Vec<f64>| -> [f64; 2] {
+            if v.is_empty() {
+                return [0.0, 1.0];
+            }
+            v.sort_by(f64::total_cmp);
+            let at = |q: f64| v[((v.len() - 1) as f64 * q) as usize];
+            let (lo, hi) = (at(0.01), at(0.99));
+            if hi > lo {
+                [lo, hi]
+            } else {
+                [lo, lo + 1.0]
+            }
+        };
+        let range = match mode {
+            ColorMode::Intensity => pct(sample.intensity.iter().map(|v| *v as f64).collect()),
+            ColorMode::Elevation => z_range,
+            ColorMode::GpsTime => pct(sample.gps_time.clone()),
+            ColorMode::PointSourceId => [0.0, 1.0],
+            _ => [0.0, 1.0],
+        };
+        let rgb_8bit = sample.rgb.iter().all(|c| c.iter().all(|v| *v <= 255));
+        Self {
+            mode,
+            range,
+            gamma: 1.0,
+            rgb_8bit,
+            ramp: Ramp::Viridis,
+        }
+    }
+}
+
+/// Colour ramps for scalar attributes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Ramp {
+    Viridis,
+    Turbo,
+    Grey,
+}
+
+impl Ramp {
+    pub const ALL: [Ramp; 3] = [Ramp::Viridis, Ramp::Turbo, Ramp::Grey];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Ramp::Viridis => "viridis",
+            Ramp::Turbo => "turbo",
+            Ramp::Grey => "grey",
+        }
+    }
+
+    /// Colour at `t` in [0, 1], interpolated between control points of the ramp.
+    pub fn at(self, t: f64) -> [u8; 3] {
+        const VIRIDIS: [[f64; 3]; 5] = [
+            [68.0, 1.0, 84.0],
+            [59.0, 82.0, 139.0],
+            [33.0, 145.0, 140.0],
+            [94.0, 201.0, 98.0],
+            [253.0, 231.0, 37.0],
+        ];
+        const TURBO: [[f64; 3]; 6] = [
+            [48.0, 18.0, 59.0],
+            [40.0, 151.0, 247.0],
+            [40.0, 237.0, 145.0],
+            [217.0, 230.0, 48.0],
+            [251.0, 128.0, 34.0],
+            [122.0, 4.0, 3.0],
+        ];
+        let t = if t.is_finite() {
+            t.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let stops: &[[f64; 3]] = match self {
+            Ramp::Viridis => &VIRIDIS,
+            Ramp::Turbo => &TURBO,
+            Ramp::Grey => &[[0.0; 3], [255.0; 3]],
+        };
+        let x = t * (stops.len() - 1) as f64;
+        let i = (x as usize).min(stops.len() - 2);
+        let f = x - i as f64;
+        [0, 1, 2].map(|k| (stops[i][k] * (1.0 - f) + stops[i + 1][k] * f).round() as u8)
+    }
+}
+
+pub fn pack_rgba(c: [u8; 3]) -> u32 {
+    u32::from_le_bytes([c[0], c[1], c[2], 255])
+}
+
+/// The standard ASPRS LAS classification colours (as the common viewers draw them).
+pub fn classification_color(class: u8) -> [u8; 3] {
+    match class {
+        0 | 1 => [170, 170, 170],
+        2 => [166, 110, 56],
+        3 => [140, 200, 90],
+        4 => [60, 160, 60],
+        5 => [20, 110, 30],
+        6 => [220, 60, 50],
+        7 => [255, 0, 255],
+        8 => [255, 200, 0],
+        9 => [40, 110, 230],
+        10 => [120, 70, 40],
+        11 => [90, 90, 90],
+        12 => [255, 255, 160],
+        13..=16 => [250, 150, 30],
+        17 => [190, 190, 230],
+        18 => [255, 80, 160],
+        _ => [
+            (class.wrapping_mul(67)) | 64,
+            (class.wrapping_mul(151)) | 64,
+            (class.wrapping_mul(199)) | 64,
+        ],
+    }
+}
+
+/// Human names of the ASPRS classes 0–18 (LAS 1.4 R15).
+pub fn classification_name(class: u8) -> &'static str {
+    match class {
+        0 => "created, never classified",
+        1 => "unclassified",
+        2 => "ground",
+        3 => "low vegetation",
+        4 => "medium vegetation",
+        5 => "high vegetation",
+        6 => "building",
+        7 => "low point (noise)",
+        8 => "model key-point",
+        9 => "water",
+        10 => "rail",
+        11 => "road surface",
+        12 => "overlap",
+        13 => "wire guard",
+        14 => "wire conductor",
+        15 => "transmission tower",
+        16 => "wire connector",
+        17 => "bridge deck",
+        18 => "high noise",
+        _ => "user defined",
+    }
+}
+
+const RETURN_COLORS: [[u8; 3]; 5] = [
+    [230, 60, 60],
+    [240, 200, 40],
+    [60, 200, 90],
+    [50, 130, 240],
+    [170, 80, 220],
+];
+
+/// RGBA8 of point `i` of `batch` under `scale`. Attributes the batch lacks draw grey.
+pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
+    let norm = |v: f64| {
+        let t = (v - scale.range[0]) / (scale.range[1] - scale.range[0]);
+        t.clamp(0.0, 1.0).powf(1.0 / scale.gamma.max(1e-3))
+    };
+    let grey = [150, 150, 150];
+    let c = match scale.mode {
+        ColorMode::Rgb => match batch.rgb.get(i) {
+            Some(c) if scale.rgb_8bit => c.map(|v| v as u8),
+            Some(c) => c.map(|v| (v >> 8) as u8),
+            None => grey,
+        },
+        ColorMode::Intensity => {
+            let t = batch.intensity.get(i).map_or(0.0, |v| norm(*v as f64));
+            Ramp::Grey.at(t)
+        }
+        ColorMode::Elevation => batch.xyz.get(i).map_or(grey, |p| scale.ramp.at(norm(p[2]))),
+        ColorMode::Classification => batch
+            .classification
+            .get(i)
+            .map_or(grey, |c| classification_color(*c)),
+        ColorMode::ReturnNumber => batch.returns.get(i).map_or(grey, |r| {
+            let n = (r & 0x0f).max(1) as usize;
+            RETURN_COLORS[(n - 1).min(RETURN_COLORS.len() - 1)]
+        }),
+        ColorMode::PointSourceId => batch.point_source_id.get(i).map_or(grey, |id| {
+            let h = crate::shuffle::mix_seed(*id as u64, 17);
+            [h as u8 | 48, (h >> 8) as u8 | 48, (h >> 16) as u8 | 48]
+        }),
+        ColorMode::GpsTime => batch
+            .gps_time
+            .get(i)
+            .map_or(grey, |t| scale.ramp.at(norm(*t))),
+    };
+    pack_rgba(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ramps_hit_their_end_points() {
+        assert_eq!(Ramp::Grey.at(0.0), [0, 0, 0]);
+        assert_eq!(Ramp::Grey.at(1.0), [255, 255, 255]);
+        assert_eq!(Ramp::Viridis.at(0.0), [68, 1, 84]);
+        assert_eq!(Ramp::Viridis.at(2.0), [253, 231, 37]);
+        assert_eq!(Ramp::Turbo.at(f64::NAN), [48, 18, 59]);
+    }
+
+    #[test]
+    fn rgb_depth_is_detected_and_classes_have_colours() {
+        let mut b = PointBatch::new(crate::PointLayout {
+            rgb: true,
+            ..Default::default()
+        });
+        b.xyz.push([0.0; 3]);
+        b.rgb.push([200, 100, 50]);
+        b.classification.push(6);
+        let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
+        assert!(s.rgb_8bit);
+        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50]));
+        b.rgb[0] = [51200, 25600, 12800];
+        let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
+        assert!(!s.rgb_8bit);
+        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50]));
+        let s = ColorScale::fit(ColorMode::Classification, &b, [0.0, 1.0]);
+        assert_eq!(point_color(&b, 0, &s), pack_rgba(classification_color(6)));
+        assert_eq!(classification_name(2), "ground");
+    }
+}

@@ -1,0 +1,378 @@
+//! GPU point memory: fixed-size page slots in as many buffers ("chunks") as the binding limit
+//! requires, the point encodings, and the bind group every point pass reads through.
+
+use crate::context::GpuContext;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+
+/// How points are laid out in GPU memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PointEncoding {
+    /// f32 xyz relative to the draw origin + RGBA8: 16 bytes, one load per point.
+    Full16,
+    /// 3 × 10-bit coarse position + RGBA8 (8 bytes), plus a 4-byte fine word read only where
+    /// the coarse step is visible on screen (Schütz et al. 2022's adaptive precision).
+    Compact8,
+}
+
+impl PointEncoding {
+    pub const ALL: [PointEncoding; 2] = [PointEncoding::Full16, PointEncoding::Compact8];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PointEncoding::Full16 => "full16",
+            PointEncoding::Compact8 => "compact8",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|e| e.name() == s)
+    }
+
+    /// Bytes of the main stream per point (the fine stream of Compact8 is extra, when read).
+    pub fn bytes_per_point(self) -> u64 {
+        match self {
+            PointEncoding::Full16 => 16,
+            PointEncoding::Compact8 => 8,
+        }
+    }
+
+    /// Bytes of GPU memory a point slot takes, fine stream included.
+    pub fn resident_bytes_per_point(self) -> u64 {
+        match self {
+            PointEncoding::Full16 => 16,
+            PointEncoding::Compact8 => 12,
+        }
+    }
+}
+
+/// Quantization steps per axis of the compact encoding: 20 bits over the box's extent.
+pub const COMPACT_STEPS: f64 = (1u64 << 20) as f64;
+
+/// One compact quantization step per axis for a box of `extent` (never 0, so flat boxes work).
+pub fn compact_step(extent: [f64; 3]) -> [f64; 3] {
+    extent.map(|e| e.max(1e-9) / COMPACT_STEPS)
+}
+
+/// 20-bit grid coordinates of `p` in a box (clamped: the box contains its points).
+pub fn quantize_compact(p: [f64; 3], origin: [f64; 3], step: [f64; 3]) -> [u32; 3] {
+    let max = COMPACT_STEPS - 1.0;
+    [0, 1, 2].map(|a| ((p[a] - origin[a]) / step[a]).floor().clamp(0.0, max) as u32)
+}
+
+/// Where the GPU draws a compact point: the centre of its fine or coarse cell.
+pub fn decode_compact(q: [u32; 3], origin: [f64; 3], step: [f64; 3], fine: bool) -> [f64; 3] {
+    [0, 1, 2].map(|a| {
+        let cell = if fine {
+            q[a] as f64 + 0.5
+        } else {
+            ((q[a] >> 10) * 1024) as f64 + 512.0
+        };
+        origin[a] + cell * step[a]
+    })
+}
+
+/// True when one coarse (10-bit) cell of a box with compact `step` covers more than half a
+/// pixel as seen from `eye`: the compact encoding must read the fine word there.
+pub fn needs_fine(origin: [f64; 3], extent: [f64; 3], eye: [f64; 3], focal_px: f64) -> bool {
+    let cell = compact_step(extent).iter().fold(0.0f64, |m, s| m.max(*s)) * 1024.0;
+    let d2: f64 = (0..3)
+        .map(|i| {
+            let (lo, hi) = (origin[i], origin[i] + extent[i]);
+            let d = (lo - eye[i]).max(eye[i] - hi).max(0.0);
+            d * d
+        })
+        .sum();
+    cell * focal_px > 0.5 * d2.sqrt()
+}
+
+/// Encodes points into the main stream (u32 words, 4 or 2 per point) and, for Compact8, the
+/// fine stream, relative to a box `origin` (and its compact `step`).
+pub fn encode_points(
+    positions: &[[f64; 3]],
+    colors: &[u32],
+    origin: [f64; 3],
+    step: [f64; 3],
+    encoding: PointEncoding,
+    main: &mut Vec<u32>,
+    fine: &mut Vec<u32>,
+) {
+    match encoding {
+        PointEncoding::Full16 => {
+            for (p, c) in positions.iter().zip(colors) {
+                main.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
+                main.push(*c);
+            }
+        }
+        PointEncoding::Compact8 => {
+            for (p, c) in positions.iter().zip(colors) {
+                let q = quantize_compact(*p, origin, step);
+                main.push((q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20);
+                main.push(*c);
+                fine.push((q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20);
+            }
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDrawInfo {
+    pub origin: [f32; 3],
+    pub flags: u32,
+    pub step: [f32; 3],
+    pub _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct GpuDrawEntry {
+    pub slot: u32,
+    pub info: u32,
+    pub first: u32,
+    pub count: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct GpuFrame {
+    pub view_proj: [[f32; 4]; 4],
+    pub size: [u32; 2],
+    pub blend_factor: f32,
+    pub _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuDispatch {
+    first_slot: u32,
+    list_offset: u32,
+    chunk: u32,
+    _pad: u32,
+}
+
+/// Layout of bind group 0 for every point pass of an encoding; identical descriptors give
+/// compatible layouts, so storages and pipelines can each create their own.
+pub(crate) fn point_group_layout(
+    device: &wgpu::Device,
+    encoding: PointEncoding,
+) -> wgpu::BindGroupLayout {
+    let both = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::VERTEX;
+    let uniform = |binding, visibility| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let mut entries = vec![
+        uniform(0, both),
+        storage(1, both),
+        storage(2, both),
+        uniform(3, both),
+        storage(4, wgpu::ShaderStages::COMPUTE),
+        storage(6, wgpu::ShaderStages::COMPUTE),
+    ];
+    if encoding == PointEncoding::Compact8 {
+        entries.push(storage(5, wgpu::ShaderStages::COMPUTE));
+    }
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(encoding.name()),
+        entries: &entries,
+    })
+}
+
+/// One point buffer (≤ the binding limit) and the slots it holds.
+pub(crate) struct PointChunk {
+    pub points: wgpu::Buffer,
+    pub fine: Option<wgpu::Buffer>,
+    pub first_slot: u32,
+    pub slots: u32,
+    pub bind_group: wgpu::BindGroup,
+    _dispatch: wgpu::Buffer,
+}
+
+/// The buffers a storage's bind groups point at besides the points themselves.
+pub(crate) struct DrawBuffers<'a> {
+    pub frame: &'a wgpu::Buffer,
+    pub infos: &'a wgpu::Buffer,
+    pub entries: &'a wgpu::Buffer,
+    pub entry_counts: &'a wgpu::Buffer,
+    /// Where each chunk's entries start in `entries` (dispatch `list_offset`).
+    pub list_offsets: &'a [u32],
+}
+
+/// Page slots of `page_size` points, spread over chunk buffers.
+pub(crate) struct PointStorage {
+    pub encoding: PointEncoding,
+    pub page_size: u32,
+    pub slots_per_chunk: u32,
+    pub chunks: Vec<PointChunk>,
+}
+
+pub(crate) fn check_page_size(page_size: u32) -> Result<(), GpuError> {
+    if page_size.is_power_of_two() && (256..=1 << 15).contains(&page_size) {
+        Ok(())
+    } else {
+        Err(GpuError::InvalidInput(format!(
+            "page size {page_size} must be a power of two in 256..=32768"
+        )))
+    }
+}
+
+impl PointStorage {
+    /// How many slots one chunk buffer holds on this device.
+    pub fn slots_per_chunk(ctx: &GpuContext, encoding: PointEncoding, page_size: u32) -> u32 {
+        let page_bytes = encoding.bytes_per_point() * page_size as u64;
+        let max = ctx.caps.max_binding.min(ctx.caps.max_buffer);
+        (max / page_bytes).clamp(1, u32::MAX as u64 / page_size as u64) as u32
+    }
+
+    pub fn new(
+        ctx: &GpuContext,
+        encoding: PointEncoding,
+        page_size: u32,
+        total_slots: u32,
+        draw: &DrawBuffers<'_>,
+    ) -> Result<Self, GpuError> {
+        check_page_size(page_size)?;
+        let device = &ctx.device;
+        let slots_per_chunk = Self::slots_per_chunk(ctx, encoding, page_size);
+        let page_bytes = encoding.bytes_per_point() * page_size as u64;
+        if page_bytes > ctx.caps.max_binding.min(ctx.caps.max_buffer) {
+            return Err(GpuError::InvalidInput(format!(
+                "a page of {page_size} points ({page_bytes} bytes) exceeds the binding limit"
+            )));
+        }
+        let layout = point_group_layout(device, encoding);
+        let mut chunks = Vec::new();
+        let mut first_slot = 0u32;
+        while first_slot < total_slots.max(1) {
+            let slots = (total_slots.max(1) - first_slot).min(slots_per_chunk);
+            let chunk_index = chunks.len();
+            let usage = wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::VERTEX
+                | wgpu::BufferUsages::COPY_DST;
+            let alloc = |label: &str, bytes: u64| {
+                ctx.checked("allocating GPU point memory", || {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(label),
+                        size: bytes,
+                        usage,
+                        mapped_at_creation: false,
+                    })
+                })
+            };
+            let points = alloc("points", slots as u64 * page_bytes)?;
+            let fine = match encoding {
+                PointEncoding::Full16 => None,
+                PointEncoding::Compact8 => Some(alloc(
+                    "fine positions",
+                    slots as u64 * page_size as u64 * 4,
+                )?),
+            };
+            let dispatch = GpuDispatch {
+                first_slot,
+                list_offset: draw.list_offsets.get(chunk_index).copied().unwrap_or(0),
+                chunk: chunk_index as u32,
+                _pad: 0,
+            };
+            let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("dispatch"),
+                size: std::mem::size_of::<GpuDispatch>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            ctx.queue
+                .write_buffer(&dispatch_buffer, 0, bytemuck::bytes_of(&dispatch));
+            let mut entries = vec![
+                entry(0, draw.frame),
+                entry(1, draw.infos),
+                entry(2, draw.entries),
+                entry(3, &dispatch_buffer),
+                entry(4, &points),
+                entry(6, draw.entry_counts),
+            ];
+            if let Some(f) = &fine {
+                entries.push(entry(5, f));
+            }
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("points"),
+                layout: &layout,
+                entries: &entries,
+            });
+            chunks.push(PointChunk {
+                points,
+                fine,
+                first_slot,
+                slots,
+                bind_group,
+                _dispatch: dispatch_buffer,
+            });
+            first_slot += slots;
+        }
+        Ok(Self {
+            encoding,
+            page_size,
+            slots_per_chunk,
+            chunks,
+        })
+    }
+
+    /// Chunks needed for `total_slots` slots on this device.
+    pub fn chunk_count(
+        ctx: &GpuContext,
+        encoding: PointEncoding,
+        page_size: u32,
+        total_slots: u32,
+    ) -> u32 {
+        total_slots
+            .max(1)
+            .div_ceil(Self::slots_per_chunk(ctx, encoding, page_size))
+    }
+
+    /// Writes encoded points into `slot` starting at point `first` of the slot.
+    pub fn write(&self, queue: &wgpu::Queue, slot: u32, first: u32, main: &[u32], fine: &[u32]) {
+        let c = (slot / self.slots_per_chunk) as usize;
+        let Some(chunk) = self.chunks.get(c) else {
+            return;
+        };
+        let point = (slot - chunk.first_slot) as u64 * self.page_size as u64 + first as u64;
+        queue.write_buffer(
+            &chunk.points,
+            point * self.encoding.bytes_per_point(),
+            bytemuck::cast_slice(main),
+        );
+        if let Some(f) = &chunk.fine {
+            queue.write_buffer(f, point * 4, bytemuck::cast_slice(fine));
+        }
+    }
+
+    /// GPU bytes of point memory.
+    pub fn bytes(&self) -> u64 {
+        self.chunks
+            .iter()
+            .map(|c| c.points.size() + c.fine.as_ref().map_or(0, |f| f.size()))
+            .sum()
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
