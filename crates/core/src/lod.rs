@@ -3,8 +3,9 @@
 //!
 //! l_i = γ_i · ‖(v/2)·p_center_i − (v/2)·p_max_i‖, with p the projected AABB centre and max
 //! corner in NDC and v the viewport in pixels; γ_i = (Σ_j h_j)² / h_i² where h is the AABB's
-//! half diagonal, damping pointlets with anomalous extents. Culled pointlets get l_i = 0. The
-//! requested count is l_i / Σl · B, clamped to the pointlet's size.
+//! half diagonal, damping pointlets with anomalous extents. Culled pointlets get l_i = 0; visible
+//! ones at least one pixel's worth. The requested count is l_i / Σl · B, clamped to the
+//! pointlet's size.
 
 use crate::Aabb;
 
@@ -78,7 +79,8 @@ pub fn requested_points(
             } else {
                 1.0
             };
-            gamma * projected_size(view_proj, b, viewport)
+            // At least a pixel: a pointlet whose box collapsed to a point still gets points.
+            gamma * projected_size(view_proj, b, viewport).max(1.0)
         })
         .collect();
     let total: f64 = importance.iter().sum();

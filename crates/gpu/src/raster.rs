@@ -1,9 +1,8 @@
 //! The rasterizer variants of the compute-shader paper (§3) and their pipelines.
 
-use crate::cloud::GpuCloud;
 use crate::context::Capabilities;
 use crate::shaders;
-use crate::storage::{point_group_layout, PointEncoding};
+use crate::storage::{point_group_layout, PointEncoding, PointStorage};
 use crate::target::RenderTarget;
 
 /// Every way of drawing points, selectable by name (`--raster`).
@@ -109,6 +108,12 @@ impl RasterVariant {
             RasterVariant::Hqs => PixelKind::Hqs,
             RasterVariant::Hqs1r => PixelKind::Hqs1r,
         }
+    }
+
+    /// True for the single-atomic closest-point variants: one key per pixel that only grows,
+    /// so more points can be drawn into a kept framebuffer later with the same result.
+    pub fn accumulates(self) -> bool {
+        self.buffers() == PixelKind::Key64
     }
 
     /// Geometry passes over all points (HQS and the 32-bit path read every point twice).
@@ -296,12 +301,13 @@ impl RasterPipelines {
         Self { stages }
     }
 
-    /// Records every stage over every chunk of `cloud` into one compute pass.
+    /// Records every stage over every chunk of `storage` into one compute pass.
     pub fn record(
         &self,
         device: &wgpu::Device,
         pass: &mut wgpu::ComputePass<'_>,
-        cloud: &GpuCloud,
+        storage: &PointStorage,
+        dispatch: RasterDispatch<'_>,
         pixel_buffers: &[&wgpu::Buffer],
     ) {
         for stage in &self.stages {
@@ -310,13 +316,28 @@ impl RasterPipelines {
             let group1 = storage_group(device, &stage.group1_layout, &mine);
             pass.set_pipeline(&stage.pipeline);
             pass.set_bind_group(1, &group1, &[]);
-            for chunk in &cloud.storage.chunks {
+            for (c, chunk) in storage.chunks.iter().enumerate() {
                 pass.set_bind_group(0, &chunk.bind_group, &[]);
-                let [x, y] = grid(chunk.slots);
-                pass.dispatch_workgroups(x, y, 1);
+                match dispatch {
+                    RasterDispatch::Direct => {
+                        let [x, y] = grid(chunk.slots);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                    RasterDispatch::Indirect(args) => {
+                        pass.dispatch_workgroups_indirect(args, c as u64 * 12);
+                    }
+                }
             }
         }
     }
+}
+
+/// How many workgroups each chunk's dispatch gets: one per slot (static clouds list every
+/// page), or the counts the LoD pass wrote (three u32 per chunk).
+#[derive(Clone, Copy)]
+pub(crate) enum RasterDispatch<'a> {
+    Direct,
+    Indirect(&'a wgpu::Buffer),
 }
 
 /// A 2-D workgroup grid with at least `groups` groups (65 535 per dimension at most).

@@ -1,14 +1,16 @@
-//! One frame: raster (a compute variant or the hardware baseline) → screen passes → image.
+//! One frame: (LoD →) raster (a compute variant or the hardware baseline) → screen passes.
 
 use crate::cloud::GpuCloud;
 use crate::context::GpuContext;
 use crate::hw_points::HwPointsPipeline;
-use crate::raster::{RasterPipelines, RasterVariant};
+use crate::paged::{PagedCloud, PagedView};
+use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::screen::{ScreenPasses, ScreenSettings};
 use crate::storage::PointEncoding;
 use crate::target::RenderTarget;
 use crate::GpuError;
 use pointlet_core::Camera;
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,9 +28,10 @@ impl Default for RenderSettings {
     }
 }
 
-/// GPU time of a frame's stages, from timestamp queries.
+/// GPU time of a frame's stages, from timestamp queries (LoD is 0 for static clouds).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameTiming {
+    pub lod_ms: f64,
     pub raster_ms: f64,
     pub screen_ms: f64,
 }
@@ -38,7 +41,10 @@ pub struct Renderer {
     raster: HashMap<(RasterVariant, PointEncoding, u32), RasterPipelines>,
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
     screen: ScreenPasses,
+    last_had_lod: bool,
 }
+
+type Stamps<'a> = Option<wgpu::ComputePassTimestampWrites<'a>>;
 
 impl Renderer {
     pub fn new(ctx: &GpuContext) -> Self {
@@ -46,19 +52,11 @@ impl Renderer {
             raster: HashMap::new(),
             hw: HashMap::new(),
             screen: ScreenPasses::new(&ctx.device),
+            last_had_lod: false,
         }
     }
 
-    /// Records and submits one frame of `cloud` seen by `camera` into `target`.
-    pub fn render(
-        &mut self,
-        ctx: &GpuContext,
-        cloud: &mut GpuCloud,
-        camera: &Camera,
-        settings: &RenderSettings,
-        target: &mut RenderTarget,
-    ) -> Result<(), GpuError> {
-        let variant = settings.variant;
+    fn check(ctx: &GpuContext, variant: RasterVariant, camera: &Camera) -> Result<(), GpuError> {
         if let Some(why) = variant.unsupported_reason(&ctx.caps) {
             return Err(GpuError::Unsupported {
                 what: variant.name().to_string(),
@@ -68,29 +66,49 @@ impl Renderer {
         }
         camera
             .validate()
-            .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
-        cloud.prepare(ctx, camera, target.width, target.height);
-        self.screen.prepare(&ctx.queue, target, &settings.screen);
+            .map_err(|e| GpuError::InvalidInput(e.to_string()))
+    }
+
+    /// Pipelines are built on first use, inside an error scope: a shader the driver rejects is
+    /// an error, not a panic.
+    fn ensure_pipelines(
+        &mut self,
+        ctx: &GpuContext,
+        variant: RasterVariant,
+        encoding: PointEncoding,
+        page_size: u32,
+    ) -> Result<(), GpuError> {
         let device = &ctx.device;
-        let key = (cloud.encoding, cloud.page_size);
-        // Pipelines are built on first use, inside an error scope: a shader the driver rejects
-        // is an error, not a panic.
         if variant == RasterVariant::HwPoints {
-            if let std::collections::hash_map::Entry::Vacant(slot) = self.hw.entry(key) {
+            if let Entry::Vacant(slot) = self.hw.entry((encoding, page_size)) {
                 slot.insert(ctx.checked("building the hw-points pipeline", || {
-                    HwPointsPipeline::new(device, key.0, key.1)
+                    HwPointsPipeline::new(device, encoding, page_size)
                 })?);
             }
-        } else if let std::collections::hash_map::Entry::Vacant(slot) =
-            self.raster.entry((variant, key.0, key.1))
-        {
+        } else if let Entry::Vacant(slot) = self.raster.entry((variant, encoding, page_size)) {
             slot.insert(ctx.checked(
                 &format!("building the {} pipelines", variant.name()),
-                || RasterPipelines::new(device, variant, key.0, key.1),
+                || RasterPipelines::new(device, variant, encoding, page_size),
             )?);
         }
-        let mut enc = device.create_command_encoder(&Default::default());
-        let kind = variant.buffers();
+        Ok(())
+    }
+
+    /// Records and submits one frame of a static `cloud` seen by `camera` into `target`.
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        cloud: &mut GpuCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+    ) -> Result<(), GpuError> {
+        let variant = settings.variant;
+        Self::check(ctx, variant, camera)?;
+        self.ensure_pipelines(ctx, variant, cloud.encoding, cloud.page_size)?;
+        cloud.prepare(ctx, camera, target.width, target.height);
+        self.screen.prepare(&ctx.queue, target, &settings.screen);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
         let timer = target.timer.as_ref();
         let stamps = |begin: u32| {
             timer.map(|t| wgpu::ComputePassTimestampWrites {
@@ -100,34 +118,141 @@ impl Renderer {
             })
         };
         if variant == RasterVariant::HwPoints {
-            if let Some(hw) = self.hw.get(&key) {
+            if let Some(hw) = self.hw.get(&(cloud.encoding, cloud.page_size)) {
                 let writes = timer.map(|t| wgpu::RenderPassTimestampWrites {
                     query_set: &t.queries,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
+                    beginning_of_pass_write_index: Some(2),
+                    end_of_pass_write_index: Some(3),
                 });
                 hw.record(&mut enc, cloud, target, writes);
             }
-        } else if let Some(pipes) = self.raster.get(&(variant, key.0, key.1)) {
-            let buffers = kind.buffers(target);
+        } else {
+            self.record_raster(
+                ctx,
+                &mut enc,
+                variant,
+                (cloud.encoding, cloud.page_size),
+                &cloud.storage,
+                RasterDispatch::Direct,
+                target,
+                true,
+                stamps(2),
+            );
+        }
+        self.last_had_lod = false;
+        self.finish_frame(ctx, enc, target, variant, &settings.screen, stamps(4))
+    }
+
+    /// Records and submits one frame of a paged (virtualized) cloud: the GPU LoD picks each
+    /// pointlet's points under `view.bucket` and draws what is resident of them.
+    pub fn render_paged(
+        &mut self,
+        ctx: &GpuContext,
+        paged: &mut PagedCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        view: &PagedView,
+        target: &mut RenderTarget,
+    ) -> Result<(), GpuError> {
+        let variant = settings.variant;
+        if variant == RasterVariant::HwPoints {
+            return Err(GpuError::Unsupported {
+                what: variant.name().to_string(),
+                why: "the point-list baseline draws static clouds only (bench-raster)".into(),
+                adapter: ctx.describe(),
+            });
+        }
+        Self::check(ctx, variant, camera)?;
+        self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size)?;
+        self.screen.prepare(&ctx.queue, target, &settings.screen);
+        // Only closest-point rasterizers are order independent and can add points to a kept
+        // framebuffer; HQS must see all points of a frame in both of its passes.
+        let view = PagedView {
+            accumulate: view.accumulate && variant.accumulates(),
+            ..*view
+        };
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let timer = target.timer.as_ref();
+        let stamps = |begin: u32| {
+            timer.map(|t| wgpu::ComputePassTimestampWrites {
+                query_set: &t.queries,
+                beginning_of_pass_write_index: Some(begin),
+                end_of_pass_write_index: Some(begin + 1),
+            })
+        };
+        paged.record_lod(
+            ctx,
+            &mut enc,
+            camera,
+            (target.width, target.height),
+            &view,
+            stamps(0),
+        );
+        self.record_raster(
+            ctx,
+            &mut enc,
+            variant,
+            (paged.encoding, paged.page_size),
+            &paged.storage,
+            RasterDispatch::Indirect(&paged.indirect),
+            target,
+            !view.accumulate,
+            stamps(2),
+        );
+        self.last_had_lod = true;
+        self.finish_frame(ctx, enc, target, variant, &settings.screen, stamps(4))?;
+        paged.after_submit();
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record_raster(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        variant: RasterVariant,
+        key: (PointEncoding, u32),
+        storage: &crate::storage::PointStorage,
+        dispatch: RasterDispatch<'_>,
+        target: &RenderTarget,
+        clear: bool,
+        stamps: Stamps<'_>,
+    ) {
+        let Some(pipes) = self.raster.get(&(variant, key.0, key.1)) else {
+            return;
+        };
+        let buffers = variant.buffers().buffers(target);
+        if clear {
             for b in &buffers {
                 enc.clear_buffer(b, 0, None);
             }
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(variant.name()),
-                timestamp_writes: stamps(0),
-            });
-            pipes.record(device, &mut pass, cloud, &buffers);
         }
-        let screen = &mut self.screen;
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(variant.name()),
+            timestamp_writes: stamps,
+        });
+        pipes.record(&ctx.device, &mut pass, storage, dispatch, &buffers);
+    }
+
+    fn finish_frame(
+        &mut self,
+        ctx: &GpuContext,
+        mut enc: wgpu::CommandEncoder,
+        target: &RenderTarget,
+        variant: RasterVariant,
+        screen: &ScreenSettings,
+        stamps: Stamps<'_>,
+    ) -> Result<(), GpuError> {
+        let device = &ctx.device;
+        let screen_passes = &mut self.screen;
+        let timer = target.timer.as_ref();
         ctx.checked("rendering a frame", || {
-            screen.record(device, &mut enc, target, kind, &settings.screen, stamps(2));
+            screen_passes.record(device, &mut enc, target, variant.buffers(), screen, stamps);
             if let Some(t) = timer {
                 t.resolve(&mut enc);
             }
             ctx.queue.submit([enc.finish()]);
-        })?;
-        Ok(())
+        })
     }
 
     /// GPU timings of the last frame rendered into `target` (waits for it); `None` without
@@ -140,10 +265,11 @@ impl Renderer {
         let Some(t) = &target.timer else {
             return Ok(None);
         };
-        let (raster_ms, screen_ms) = t.read(ctx)?;
+        let [lod, raster, screen] = t.read(ctx)?;
         Ok(Some(FrameTiming {
-            raster_ms,
-            screen_ms,
+            lod_ms: if self.last_had_lod { lod } else { 0.0 },
+            raster_ms: raster,
+            screen_ms: screen,
         }))
     }
 }

@@ -21,6 +21,7 @@ pub const RESOLVE_HQS1R: &str = include_str!("../shaders/resolve_hqs1r.wgsl");
 pub const FILL: &str = include_str!("../shaders/fill.wgsl");
 pub const COMPOSE: &str = include_str!("../shaders/compose.wgsl");
 pub const COPY: &str = include_str!("../shaders/copy.wgsl");
+pub const LOD: &str = include_str!("../shaders/lod.wgsl");
 
 /// A point pass: header + fetch for `encoding` + body.
 pub fn point_pass(encoding: PointEncoding, body: &str) -> String {

@@ -209,7 +209,7 @@ pub(crate) fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8
     Ok(out)
 }
 
-/// Timestamps at the borders of a frame's passes: raster start/end, screen start/end.
+/// Timestamps at the borders of a frame's passes: LoD, raster and screen start/end.
 pub(crate) struct FrameTimer {
     pub queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
@@ -217,7 +217,7 @@ pub(crate) struct FrameTimer {
     period_ns: f64,
 }
 
-pub(crate) const TIMESTAMPS: u32 = 4;
+pub(crate) const TIMESTAMPS: u32 = 6;
 
 impl FrameTimer {
     fn new(ctx: &GpuContext) -> Self {
@@ -250,11 +250,14 @@ impl FrameTimer {
         enc.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, TIMESTAMPS as u64 * 8);
     }
 
-    /// (raster ms, screen ms) of the last submitted frame.
-    pub fn read(&self, ctx: &GpuContext) -> Result<(f64, f64), GpuError> {
+    /// [LoD, raster, screen] milliseconds of the last submitted frame.
+    pub fn read(&self, ctx: &GpuContext) -> Result<[f64; 3], GpuError> {
         let bytes = map_read(ctx, &self.readback)?;
         let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
-        let ms = |a: u64, b: u64| b.saturating_sub(a) as f64 * self.period_ns * 1e-6;
-        Ok((ms(t[0], t[1]), ms(t[2], t[3])))
+        let ms = |k: usize| match (t.get(2 * k), t.get(2 * k + 1)) {
+            (Some(a), Some(b)) => b.saturating_sub(*a) as f64 * self.period_ns * 1e-6,
+            _ => 0.0,
+        };
+        Ok([ms(0), ms(1), ms(2)])
     }
 }

@@ -1,0 +1,558 @@
+//! Virtualized point memory on the GPU: a fixed pool of page slots under a VRAM budget, a page
+//! table per pointlet, and the LoD pass that picks each frame's points and builds the draw list
+//! on the GPU (lod.wgsl). Which pages live where is decided on the CPU (the engine's residency
+//! policy); this module is the mechanism: write points into slots, publish residency, draw.
+
+use crate::cloud::write_frame;
+use crate::context::GpuContext;
+use crate::storage::{
+    compact_step, encode_points, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding,
+    PointStorage,
+};
+use crate::{shaders, GpuError};
+use bytemuck::{Pod, Zeroable};
+use pointlet_core::{Aabb, Camera};
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::Arc;
+
+/// A pointlet as the GPU LoD needs it: its bounding box and point count.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointletDesc {
+    pub aabb: Aabb,
+    pub count: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuPointlet {
+    origin_hi: [f32; 3],
+    count: u32,
+    origin_lo: [f32; 3],
+    gamma: f32,
+    extent: [f32; 3],
+    _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct LodParams {
+    view_proj: [[f32; 4]; 4],
+    eye_hi: [f32; 3],
+    pointlet_count: u32,
+    eye_lo: [f32; 3],
+    bucket: f32,
+    viewport: [f32; 2],
+    focal_px: f32,
+    compact: u32,
+    accumulate: u32,
+    page_size: u32,
+    max_pages: u32,
+    chunk_slots: u32,
+    chunk_count: u32,
+    partial_count: u32,
+    _pad: [u32; 2],
+}
+
+/// f64 → (hi, lo) f32 pair with hi + lo ≈ v to ~2^-48 relative: lets the GPU subtract the eye
+/// from an origin of 10^6–10^7 m without losing millimetres.
+fn split(v: f64) -> (f32, f32) {
+    let hi = v as f32;
+    (hi, (v - hi as f64) as f32)
+}
+
+/// γ_i of eq. 3: (Σ_j h_j)² / h_i², with h the AABB half-diagonal; normalised so that the
+/// typical pointlet gets γ ≈ 1 (only ratios matter: the LoD divides by Σl).
+pub fn gammas(pointlets: &[PointletDesc]) -> Vec<f32> {
+    let half: Vec<f64> = pointlets.iter().map(|p| 0.5 * p.aabb.diagonal()).collect();
+    let sum: f64 = half.iter().sum();
+    let n = half.len().max(1) as f64;
+    half.iter()
+        .map(|h| {
+            if *h > 0.0 && sum > 0.0 {
+                ((sum / n) * (sum / n) / (h * h)) as f32
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+const READBACKS: usize = 3;
+const FREE: u8 = 0;
+const IN_FLIGHT: u8 = 1;
+const READY: u8 = 2;
+
+struct Readback {
+    buffer: wgpu::Buffer,
+    state: Arc<AtomicU8>,
+    frame: u64,
+}
+
+/// How a frame of a paged cloud is drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PagedView {
+    /// Point budget B of the LoD (the paper's bucket).
+    pub bucket: f64,
+    /// Keep the framebuffer and draw only points not drawn yet (camera still).
+    pub accumulate: bool,
+}
+
+pub struct PagedCloud {
+    pub encoding: PointEncoding,
+    pub page_size: u32,
+    /// Page-table entries per pointlet: ceil(largest pointlet / page size).
+    pub max_pages: u32,
+    pub slots: u32,
+    pointlets: Vec<PointletDesc>,
+    pub(crate) storage: PointStorage,
+    pub(crate) frame_uniform: wgpu::Buffer,
+    pub(crate) indirect: wgpu::Buffer,
+    pub(crate) entry_counts: wgpu::Buffer,
+    lod_params: wgpu::Buffer,
+    requested: wgpu::Buffer,
+    state: wgpu::Buffer,
+    page_table: wgpu::Buffer,
+    lod_group: wgpu::BindGroup,
+    list_group: wgpu::BindGroup,
+    importance: wgpu::ComputePipeline,
+    total: wgpu::ComputePipeline,
+    build: wgpu::ComputePipeline,
+    finalize: wgpu::ComputePipeline,
+    partial_count: u32,
+    readbacks: Vec<Readback>,
+    pending_map: Option<usize>,
+    frame: u64,
+    table_bytes: u64,
+    /// Encoding buffers reused across writes.
+    scratch: (Vec<u32>, Vec<u32>),
+}
+
+impl PagedCloud {
+    /// GPU bytes of everything but the page pool, for `pointlets` pointlets.
+    pub fn overhead_bytes(pointlets: &[PointletDesc], page_size: u32) -> u64 {
+        let n = pointlets.len() as u64;
+        let max_pages = Self::max_pages_for(pointlets, page_size) as u64;
+        // pointlet table, importance(+partials), requested, infos, state, page table, readbacks
+        n * (32 + 4 + 4 + 32 + 16 + 4 * max_pages + 4 * READBACKS as u64) + 4 * n / 256 + 4096
+    }
+
+    /// GPU bytes per page slot (pool plus its draw-list entry).
+    pub fn slot_bytes(encoding: PointEncoding, page_size: u32) -> u64 {
+        encoding.resident_bytes_per_point() * page_size as u64 + 16
+    }
+
+    fn max_pages_for(pointlets: &[PointletDesc], page_size: u32) -> u32 {
+        pointlets
+            .iter()
+            .map(|p| p.count.div_ceil(page_size))
+            .max()
+            .unwrap_or(1)
+            .max(1)
+    }
+
+    pub fn new(
+        ctx: &GpuContext,
+        pointlets: Vec<PointletDesc>,
+        encoding: PointEncoding,
+        page_size: u32,
+        slots: u32,
+    ) -> Result<Self, GpuError> {
+        if pointlets.is_empty() {
+            return Err(GpuError::InvalidInput("no pointlets to draw".into()));
+        }
+        if pointlets.iter().any(|p| {
+            p.aabb.is_empty() || p.aabb.min.iter().chain(&p.aabb.max).any(|v| !v.is_finite())
+        }) {
+            return Err(GpuError::InvalidInput(
+                "every pointlet needs a finite bounding box".into(),
+            ));
+        }
+        let slots = slots.max(1);
+        let n = pointlets.len() as u32;
+        let max_pages = Self::max_pages_for(&pointlets, page_size);
+        let device = &ctx.device;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.checked("allocating the page tables", || {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let rw = U::STORAGE | U::COPY_DST;
+        let partial_count = n.div_ceil(256);
+        let frame_uniform = buffer(
+            "frame",
+            std::mem::size_of::<GpuFrame>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        )?;
+        let infos = buffer(
+            "draw infos",
+            n as u64 * std::mem::size_of::<GpuDrawInfo>() as u64,
+            rw,
+        )?;
+        let entries = buffer(
+            "draw entries",
+            slots as u64 * std::mem::size_of::<GpuDrawEntry>() as u64,
+            rw,
+        )?;
+        let chunks = PointStorage::chunk_count(ctx, encoding, page_size, slots);
+        let chunk_slots = PointStorage::slots_per_chunk(ctx, encoding, page_size);
+        let entry_counts = buffer("entry counts", chunks as u64 * 4, rw)?;
+        let indirect = buffer(
+            "indirect dispatch",
+            chunks as u64 * 12,
+            U::STORAGE | U::INDIRECT,
+        )?;
+        let offsets: Vec<u32> = (0..chunks).map(|c| c * chunk_slots).collect();
+        let storage = PointStorage::new(
+            ctx,
+            encoding,
+            page_size,
+            slots,
+            &DrawBuffers {
+                frame: &frame_uniform,
+                infos: &infos,
+                entries: &entries,
+                entry_counts: &entry_counts,
+                list_offsets: &offsets,
+            },
+        )?;
+        let gamma = gammas(&pointlets);
+        let table: Vec<GpuPointlet> = pointlets
+            .iter()
+            .zip(&gamma)
+            .map(|(p, g)| {
+                let s = p.aabb.min.map(split);
+                GpuPointlet {
+                    origin_hi: s.map(|v| v.0),
+                    count: p.count,
+                    origin_lo: s.map(|v| v.1),
+                    gamma: *g,
+                    extent: p.aabb.extent().map(|e| e as f32),
+                    _pad: 0,
+                }
+            })
+            .collect();
+        let pointlet_buf = buffer("pointlets", n as u64 * 48, U::STORAGE | U::COPY_DST)?;
+        ctx.queue
+            .write_buffer(&pointlet_buf, 0, bytemuck::cast_slice(&table));
+        let importance = buffer("importance", (n + partial_count + 1) as u64 * 4, U::STORAGE)?;
+        let requested = buffer("requested", n as u64 * 4, U::STORAGE | U::COPY_SRC)?;
+        let state = buffer("residency", n as u64 * 16, rw)?;
+        let page_table = buffer("page table", n as u64 * max_pages as u64 * 4, rw)?;
+        let lod_params = buffer(
+            "lod params",
+            std::mem::size_of::<LodParams>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        )?;
+        let readbacks = (0..READBACKS)
+            .map(|_| {
+                Ok(Readback {
+                    buffer: buffer(
+                        "requested readback",
+                        n as u64 * 4,
+                        U::MAP_READ | U::COPY_DST,
+                    )?,
+                    state: Arc::new(AtomicU8::new(FREE)),
+                    frame: 0,
+                })
+            })
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        let module = shaders::module(device, "lod", shaders::LOD);
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let write = wgpu::BufferBindingType::Storage { read_only: false };
+        let group0_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lod"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, read),
+                entry(2, write),
+                entry(3, write),
+                entry(4, write),
+                entry(5, write),
+                entry(6, read),
+                entry(7, write),
+            ],
+        });
+        let group1_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("draw list"),
+            entries: &[entry(0, write), entry(1, write)],
+        });
+        // One layout for the four passes, so the same bind groups serve them all.
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lod"),
+            bind_group_layouts: &[Some(&group0_layout), Some(&group1_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let (importance_p, total_p, build_p, finalize_p) =
+            ctx.checked("building the LoD pass", || {
+                (
+                    pipeline("importance_pass"),
+                    pipeline("total_pass"),
+                    pipeline("build_pass"),
+                    pipeline("finalize_pass"),
+                )
+            })?;
+        let group = |layout: &wgpu::BindGroupLayout, buffers: &[(u32, &wgpu::Buffer)]| {
+            let entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .map(|(b, buf)| wgpu::BindGroupEntry {
+                    binding: *b,
+                    resource: buf.as_entire_binding(),
+                })
+                .collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("lod"),
+                layout,
+                entries: &entries,
+            })
+        };
+        let lod_group = group(
+            &group0_layout,
+            &[
+                (0, &lod_params),
+                (1, &pointlet_buf),
+                (2, &importance),
+                (3, &requested),
+                (4, &infos),
+                (5, &state),
+                (6, &page_table),
+                (7, &entries),
+            ],
+        );
+        let list_group = group(&group1_layout, &[(0, &entry_counts), (1, &indirect)]);
+        let table_bytes = infos.size()
+            + entries.size()
+            + pointlet_buf.size()
+            + importance.size()
+            + requested.size()
+            + state.size()
+            + page_table.size()
+            + READBACKS as u64 * n as u64 * 4;
+        Ok(Self {
+            encoding,
+            page_size,
+            max_pages,
+            slots,
+            pointlets,
+            storage,
+            frame_uniform,
+            indirect,
+            entry_counts,
+            lod_params,
+            requested,
+            state,
+            page_table,
+            lod_group,
+            list_group,
+            importance: importance_p,
+            total: total_p,
+            build: build_p,
+            finalize: finalize_p,
+            partial_count,
+            readbacks,
+            pending_map: None,
+            frame: 0,
+            table_bytes,
+            scratch: (Vec::new(), Vec::new()),
+        })
+    }
+
+    pub fn pointlets(&self) -> &[PointletDesc] {
+        &self.pointlets
+    }
+
+    /// GPU bytes allocated: the page pool plus every table.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.storage.bytes() + self.table_bytes
+    }
+
+    /// Encodes points `first_point..` of `pointlet` (absolute f64 coordinates) into `slot`,
+    /// which must hold the page containing `first_point`; the run must not cross the page end.
+    pub fn write_points(
+        &mut self,
+        ctx: &GpuContext,
+        pointlet: u32,
+        slot: u32,
+        first_point: u32,
+        positions: &[[f64; 3]],
+        colors: &[u32],
+    ) {
+        let Some(desc) = self.pointlets.get(pointlet as usize) else {
+            return;
+        };
+        let (main, fine) = &mut self.scratch;
+        main.clear();
+        fine.clear();
+        encode_points(
+            positions,
+            colors,
+            desc.aabb.min,
+            compact_step(desc.aabb.extent()),
+            self.encoding,
+            main,
+            fine,
+        );
+        self.storage
+            .write(&ctx.queue, slot, first_point % self.page_size, main, fine);
+    }
+
+    /// Publishes that points `lo..hi` of `pointlet` are resident, page j (from lo / page size)
+    /// in `slots[j - lo / page size]`.
+    pub fn set_residency(&self, ctx: &GpuContext, pointlet: u32, lo: u32, hi: u32, slots: &[u32]) {
+        let i = pointlet as u64;
+        ctx.queue
+            .write_buffer(&self.state, i * 16, bytemuck::cast_slice(&[lo, hi]));
+        if !slots.is_empty() {
+            let first_page = (lo / self.page_size) as u64;
+            ctx.queue.write_buffer(
+                &self.page_table,
+                (i * self.max_pages as u64 + first_page) * 4,
+                bytemuck::cast_slice(slots),
+            );
+        }
+    }
+
+    /// Forgets what was drawn into the kept framebuffer (the next accumulating frame starts over).
+    pub fn reset_drawn(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.clear_buffer(&self.state, 0, None);
+    }
+
+    /// Records the LoD and draw-list passes of a frame (and the copy of the requests).
+    pub(crate) fn record_lod(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        camera: &Camera,
+        (width, height): (u32, u32),
+        view: &PagedView,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        write_frame(ctx, &self.frame_uniform, camera, width, height);
+        let eye = camera.eye.map(split);
+        let params = LodParams {
+            view_proj: pointlet_core::camera::to_f32(
+                &camera.relative_view_projection(width as f64 / height.max(1) as f64),
+            ),
+            eye_hi: eye.map(|v| v.0),
+            pointlet_count: self.pointlets.len() as u32,
+            eye_lo: eye.map(|v| v.1),
+            bucket: view.bucket as f32,
+            viewport: [width as f32, height as f32],
+            focal_px: (0.5 * height as f64 / (camera.fov_y_deg.to_radians() * 0.5).tan()) as f32,
+            compact: (self.encoding == PointEncoding::Compact8) as u32,
+            accumulate: view.accumulate as u32,
+            page_size: self.page_size,
+            max_pages: self.max_pages,
+            chunk_slots: self.storage.slots_per_chunk,
+            chunk_count: self.storage.chunks.len() as u32,
+            partial_count: self.partial_count,
+            _pad: [0; 2],
+        };
+        ctx.queue
+            .write_buffer(&self.lod_params, 0, bytemuck::bytes_of(&params));
+        enc.clear_buffer(&self.entry_counts, 0, None);
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("lod"),
+                timestamp_writes: timestamps,
+            });
+            pass.set_bind_group(0, &self.lod_group, &[]);
+            pass.set_bind_group(1, &self.list_group, &[]);
+            let groups = self.partial_count;
+            pass.set_pipeline(&self.importance);
+            pass.dispatch_workgroups(groups, 1, 1);
+            pass.set_pipeline(&self.total);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&self.build);
+            pass.dispatch_workgroups(groups, 1, 1);
+            pass.set_pipeline(&self.finalize);
+            pass.dispatch_workgroups(self.storage.chunks.len().div_ceil(64) as u32, 1, 1);
+        }
+        self.frame += 1;
+        self.pending_map = None;
+        if let Some(k) = self
+            .readbacks
+            .iter()
+            .position(|r| r.state.load(Ordering::Acquire) == FREE)
+        {
+            let r = &mut self.readbacks[k];
+            enc.copy_buffer_to_buffer(&self.requested, 0, &r.buffer, 0, r.buffer.size());
+            r.state.store(IN_FLIGHT, Ordering::Release);
+            r.frame = self.frame;
+            self.pending_map = Some(k);
+        }
+    }
+
+    /// Call after the frame's submission: starts mapping the requests copied this frame.
+    pub(crate) fn after_submit(&mut self) {
+        if let Some(k) = self.pending_map.take() {
+            let r = &self.readbacks[k];
+            let state = r.state.clone();
+            r.buffer
+                .slice(..)
+                .map_async(wgpu::MapMode::Read, move |result| {
+                    state.store(if result.is_ok() { READY } else { FREE }, Ordering::Release);
+                });
+        }
+    }
+
+    /// The most recent per-pointlet requests the GPU computed that have arrived on the CPU, with
+    /// the frame number they belong to. Never blocks.
+    pub fn poll_requested(&mut self, ctx: &GpuContext) -> Option<(u64, Vec<u32>)> {
+        let _ = ctx.device.poll(wgpu::PollType::Poll);
+        let mut newest: Option<(u64, Vec<u32>)> = None;
+        for r in &mut self.readbacks {
+            if r.state.load(Ordering::Acquire) != READY {
+                continue;
+            }
+            let data = r
+                .buffer
+                .slice(..)
+                .get_mapped_range()
+                .ok()
+                .map(|v| bytemuck::pod_collect_to_vec::<u8, u32>(&v));
+            r.buffer.unmap();
+            r.state.store(FREE, Ordering::Release);
+            if let Some(d) = data {
+                if newest.as_ref().is_none_or(|(f, _)| *f < r.frame) {
+                    newest = Some((r.frame, d));
+                }
+            }
+        }
+        newest
+    }
+
+    /// Like [`poll_requested`](Self::poll_requested) but waits for this frame's requests (tests,
+    /// tools, benchmarks — never the render loop).
+    pub fn wait_requested(&mut self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+        ctx.wait()?;
+        self.poll_requested(ctx)
+            .map(|(_, r)| r)
+            .ok_or_else(|| GpuError::Device("the LoD requests did not arrive".into()))
+    }
+}
