@@ -57,7 +57,8 @@ struct DrawEntry {
 @group(0) @binding(1) var<storage, read> pointlets: array<Pointlet>;
 // importance[0..n), then one partial sum per workgroup, then Σl.
 @group(0) @binding(2) var<storage, read_write> importance: array<f32>;
-@group(0) @binding(3) var<storage, read_write> requested: array<u32>;
+// Read back by the CPU: requested points [0, n), then points drawn into the framebuffer [n, 2n).
+@group(0) @binding(3) var<storage, read_write> feedback: array<u32>;
 @group(0) @binding(4) var<storage, read_write> infos: array<DrawInfo>;
 @group(0) @binding(5) var<storage, read_write> state: array<vec4<u32>>;
 @group(0) @binding(6) var<storage, read> page_table: array<u32>;
@@ -162,7 +163,7 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     if total > 0.0 {
         req = min(p.count, u32(round(importance[i] / total * params.bucket)));
     }
-    requested[i] = req;
+    feedback[i] = req;
 
     let o = relative_origin(p);
     let step = max(p.extent, vec3<f32>(1e-9)) / 1048576.0;
@@ -183,6 +184,7 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         drawn = max(st.z, end);
     }
     state[i].z = drawn;
+    feedback[params.pointlet_count + i] = drawn;
     if end <= start {
         return;
     }

@@ -18,7 +18,7 @@ mod target;
 pub use bandwidth::copy_bandwidth;
 pub use cloud::{GpuCloud, PageMeta, PointSet};
 pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
-pub use paged::{gammas, PagedCloud, PagedView, PointletDesc};
+pub use paged::{gammas, LodFeedback, PagedCloud, PagedView, PointletDesc};
 pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use screen::{EdlSettings, ScreenSettings};

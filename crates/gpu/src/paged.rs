@@ -88,6 +88,17 @@ struct Readback {
     frame: u64,
 }
 
+/// What the GPU LoD decided in one frame, read back to drive streaming.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LodFeedback {
+    /// The frame (see [`PagedCloud::frames`]) these values belong to.
+    pub frame: u64,
+    /// Points requested per pointlet (a prefix of its shuffled order).
+    pub requested: Vec<u32>,
+    /// Points of each pointlet now in the framebuffer: the end of the range drawn.
+    pub drawn: Vec<u32>,
+}
+
 /// How a frame of a paged cloud is drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PagedView {
@@ -109,7 +120,7 @@ pub struct PagedCloud {
     pub(crate) indirect: wgpu::Buffer,
     pub(crate) entry_counts: wgpu::Buffer,
     lod_params: wgpu::Buffer,
-    requested: wgpu::Buffer,
+    feedback: wgpu::Buffer,
     state: wgpu::Buffer,
     page_table: wgpu::Buffer,
     lod_group: wgpu::BindGroup,
@@ -133,7 +144,7 @@ impl PagedCloud {
         let n = pointlets.len() as u64;
         let max_pages = Self::max_pages_for(pointlets, page_size) as u64;
         // pointlet table, importance(+partials), requested, infos, state, page table, readbacks
-        n * (32 + 4 + 4 + 32 + 16 + 4 * max_pages + 4 * READBACKS as u64) + 4 * n / 256 + 4096
+        n * (48 + 4 + 8 + 32 + 16 + 4 * max_pages + 8 * READBACKS as u64) + 4 * n / 256 + 4096
     }
 
     /// GPU bytes per page slot (pool plus its draw-list entry).
@@ -241,7 +252,7 @@ impl PagedCloud {
         ctx.queue
             .write_buffer(&pointlet_buf, 0, bytemuck::cast_slice(&table));
         let importance = buffer("importance", (n + partial_count + 1) as u64 * 4, U::STORAGE)?;
-        let requested = buffer("requested", n as u64 * 4, U::STORAGE | U::COPY_SRC)?;
+        let feedback = buffer("lod feedback", n as u64 * 8, U::STORAGE | U::COPY_SRC)?;
         let state = buffer("residency", n as u64 * 16, rw)?;
         let page_table = buffer("page table", n as u64 * max_pages as u64 * 4, rw)?;
         let lod_params = buffer(
@@ -252,11 +263,7 @@ impl PagedCloud {
         let readbacks = (0..READBACKS)
             .map(|_| {
                 Ok(Readback {
-                    buffer: buffer(
-                        "requested readback",
-                        n as u64 * 4,
-                        U::MAP_READ | U::COPY_DST,
-                    )?,
+                    buffer: buffer("feedback readback", n as u64 * 8, U::MAP_READ | U::COPY_DST)?,
                     state: Arc::new(AtomicU8::new(FREE)),
                     frame: 0,
                 })
@@ -337,7 +344,7 @@ impl PagedCloud {
                 (0, &lod_params),
                 (1, &pointlet_buf),
                 (2, &importance),
-                (3, &requested),
+                (3, &feedback),
                 (4, &infos),
                 (5, &state),
                 (6, &page_table),
@@ -349,10 +356,10 @@ impl PagedCloud {
             + entries.size()
             + pointlet_buf.size()
             + importance.size()
-            + requested.size()
+            + feedback.size()
             + state.size()
             + page_table.size()
-            + READBACKS as u64 * n as u64 * 4;
+            + READBACKS as u64 * n as u64 * 8;
         Ok(Self {
             encoding,
             page_size,
@@ -364,7 +371,7 @@ impl PagedCloud {
             indirect,
             entry_counts,
             lod_params,
-            requested,
+            feedback,
             state,
             page_table,
             lod_group,
@@ -437,11 +444,6 @@ impl PagedCloud {
         }
     }
 
-    /// Forgets what was drawn into the kept framebuffer (the next accumulating frame starts over).
-    pub fn reset_drawn(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.clear_buffer(&self.state, 0, None);
-    }
-
     /// Records the LoD and draw-list passes of a frame (and the copy of the requests).
     pub(crate) fn record_lod(
         &mut self,
@@ -501,7 +503,7 @@ impl PagedCloud {
             .position(|r| r.state.load(Ordering::Acquire) == FREE)
         {
             let r = &mut self.readbacks[k];
-            enc.copy_buffer_to_buffer(&self.requested, 0, &r.buffer, 0, r.buffer.size());
+            enc.copy_buffer_to_buffer(&self.feedback, 0, &r.buffer, 0, r.buffer.size());
             r.state.store(IN_FLIGHT, Ordering::Release);
             r.frame = self.frame;
             self.pending_map = Some(k);
@@ -521,11 +523,11 @@ impl PagedCloud {
         }
     }
 
-    /// The most recent per-pointlet requests the GPU computed that have arrived on the CPU, with
-    /// the frame number they belong to. Never blocks.
-    pub fn poll_requested(&mut self, ctx: &GpuContext) -> Option<(u64, Vec<u32>)> {
+    /// The most recent LoD feedback that has arrived on the CPU, never blocking.
+    pub fn poll_feedback(&mut self, ctx: &GpuContext) -> Option<LodFeedback> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
-        let mut newest: Option<(u64, Vec<u32>)> = None;
+        let n = self.pointlets.len();
+        let mut newest: Option<LodFeedback> = None;
         for r in &mut self.readbacks {
             if r.state.load(Ordering::Acquire) != READY {
                 continue;
@@ -538,21 +540,30 @@ impl PagedCloud {
                 .map(|v| bytemuck::pod_collect_to_vec::<u8, u32>(&v));
             r.buffer.unmap();
             r.state.store(FREE, Ordering::Release);
-            if let Some(d) = data {
-                if newest.as_ref().is_none_or(|(f, _)| *f < r.frame) {
-                    newest = Some((r.frame, d));
+            if let Some(mut d) = data {
+                if d.len() == 2 * n && newest.as_ref().is_none_or(|f| f.frame < r.frame) {
+                    let drawn = d.split_off(n);
+                    newest = Some(LodFeedback {
+                        frame: r.frame,
+                        requested: d,
+                        drawn,
+                    });
                 }
             }
         }
         newest
     }
 
-    /// Like [`poll_requested`](Self::poll_requested) but waits for this frame's requests (tests,
-    /// tools, benchmarks — never the render loop).
-    pub fn wait_requested(&mut self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+    /// Frames submitted so far (the numbering [`LodFeedback::frame`] uses).
+    pub fn frames(&self) -> u64 {
+        self.frame
+    }
+
+    /// Like [`poll_feedback`](Self::poll_feedback) but waits for the last frame's (tests, tools,
+    /// benchmarks — never the render loop).
+    pub fn wait_feedback(&mut self, ctx: &GpuContext) -> Result<LodFeedback, GpuError> {
         ctx.wait()?;
-        self.poll_requested(ctx)
-            .map(|(_, r)| r)
-            .ok_or_else(|| GpuError::Device("the LoD requests did not arrive".into()))
+        self.poll_feedback(ctx)
+            .ok_or_else(|| GpuError::Device("the LoD feedback did not arrive".into()))
     }
 }

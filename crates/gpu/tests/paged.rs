@@ -125,7 +125,7 @@ fn gpu_lod_matches_the_cpu_reference() {
             },
             &cam,
         );
-        let gpu = paged.wait_requested(&ctx).expect("requests");
+        let gpu = paged.wait_feedback(&ctx).expect("feedback").requested;
         let boxes: Vec<Aabb> = descs.iter().map(|d| d.aabb).collect();
         let counts: Vec<u32> = descs.iter().map(|d| d.count).collect();
         let cpu = pointlet_core::lod::requested_points(

@@ -55,9 +55,12 @@ enum Task {
 struct Shared<S> {
     source: S,
     slots: Vec<Mutex<PointletData>>,
-    /// Mirror of each slot's length, readable without the lock.
+    /// Mirror of each slot's held window [held_from, loaded), readable without the lock.
     loaded: Vec<AtomicU32>,
+    held_from: Vec<AtomicU32>,
     wanted: Vec<AtomicU32>,
+    /// Points below this are no longer needed (already on the GPU and drawn).
+    keep_from: Vec<AtomicU32>,
     /// Frame in which the pointlet was last wanted (for least-recently-used eviction).
     last_wanted: Vec<AtomicU64>,
     load_queued: Vec<AtomicBool>,
@@ -96,7 +99,9 @@ impl<S: PointletSource> RamCache<S> {
                 .map(|_| Mutex::new(PointletData::default()))
                 .collect(),
             loaded: atomics32(),
+            held_from: atomics32(),
             wanted: atomics32(),
+            keep_from: atomics32(),
             last_wanted: (0..n).map(|_| AtomicU64::new(0)).collect(),
             load_queued: flags(),
             unload_queued: flags(),
@@ -136,14 +141,27 @@ impl<S: PointletSource> RamCache<S> {
         self.shared.slots.len()
     }
 
-    /// Points of pointlet `i` resident now (a prefix of its shuffled order).
+    /// One past the last point of pointlet `i` held now.
     pub fn resident(&self, i: usize) -> u32 {
         self.shared.loaded.get(i).map_or(0, |a| a.load(Acquire))
     }
 
-    /// Hands over this frame's wanted counts (one per pointlet) and enqueues tasks.
+    /// The points of pointlet `i` held now: a window of its shuffled order.
+    pub fn held(&self, i: usize) -> std::ops::Range<u32> {
+        let from = self.shared.held_from.get(i).map_or(0, |a| a.load(Acquire));
+        from..self.resident(i).max(from)
+    }
+
+    /// Hands over this frame's wanted counts (one per pointlet: a prefix) and enqueues tasks.
     /// Never blocks: when the queue is full, the rest waits for a later frame.
     pub fn request(&mut self, wanted: &[u32]) {
+        self.request_window(wanted, &[]);
+    }
+
+    /// Like [`request`](Self::request), but points of pointlet i below `keep_from[i]` are no
+    /// longer needed (missing entries mean 0): under pressure they are dropped first, so a
+    /// window slides over a pointlet larger than the budget.
+    pub fn request_window(&mut self, wanted: &[u32], keep_from: &[u32]) {
         self.frame += 1;
         let sh = &self.shared;
         let Some(tx) = &self.tx else { return };
@@ -153,14 +171,17 @@ impl<S: PointletSource> RamCache<S> {
         let mut loads: Vec<u32> = Vec::new();
         for (i, w) in wanted.iter().enumerate().take(sh.slots.len()) {
             let w = (*w).min(sh.source.pointlet_len(i));
+            let keep = keep_from.get(i).copied().unwrap_or(0).min(w);
             sh.wanted[i].store(w, Relaxed);
+            sh.keep_from[i].store(keep, Relaxed);
             if w > 0 {
                 sh.last_wanted[i].store(self.frame, Relaxed);
             }
             let have = sh.loaded[i].load(Acquire);
+            let from = sh.held_from[i].load(Acquire);
             if w > have && !sh.load_queued[i].load(Acquire) {
                 loads.push(i as u32);
-            } else if w < have && pressure && !sh.unload_queued[i].load(Acquire) {
+            } else if (w < have || keep > from) && pressure && !sh.unload_queued[i].load(Acquire) {
                 surplus.push((sh.last_wanted[i].load(Relaxed), i as u32));
             }
         }
@@ -174,9 +195,9 @@ impl<S: PointletSource> RamCache<S> {
                     break;
                 }
                 let i = i as usize;
-                let extra = sh.loaded[i]
-                    .load(Relaxed)
-                    .saturating_sub(sh.wanted[i].load(Relaxed));
+                let (from, have) = (sh.held_from[i].load(Relaxed), sh.loaded[i].load(Relaxed));
+                let extra = have.saturating_sub(sh.wanted[i].load(Relaxed).max(from))
+                    + sh.keep_from[i].load(Relaxed).min(have).saturating_sub(from);
                 sh.unload_queued[i].store(true, Release);
                 if !self.send(tx, Task::Unload(i as u32)) {
                     sh.unload_queued[i].store(false, Release);
@@ -205,18 +226,20 @@ impl<S: PointletSource> RamCache<S> {
         }
     }
 
-    /// Calls `f` with the resident points of pointlet `i` in `range` (clamped to what is resident).
-    /// Holds the pointlet's lock only for the call: loaders append outside it.
+    /// Calls `f` with the held points of pointlet `i` in `range` (clamped to what is held) and
+    /// the index of the first one. Holds the pointlet's lock only for the call: loaders read
+    /// outside it.
     pub fn with_points<R>(
         &self,
         i: usize,
         range: std::ops::Range<u32>,
-        f: impl FnOnce(&[[i32; 3]], &[u32]) -> R,
+        f: impl FnOnce(u32, &[[i32; 3]], &[u32]) -> R,
     ) -> Option<R> {
         let slot = self.shared.slots.get(i)?.lock().ok()?;
-        let end = (range.end as usize).min(slot.len());
-        let start = (range.start as usize).min(end);
-        Some(f(&slot.positions[start..end], &slot.attribute[start..end]))
+        let first = range.start.clamp(slot.start, slot.end());
+        let end = range.end.clamp(first, slot.end());
+        let (a, b) = ((first - slot.start) as usize, (end - slot.start) as usize);
+        Some(f(first, &slot.positions[a..b], &slot.attribute[a..b]))
     }
 
     pub fn stats(&self) -> CacheStats {
@@ -319,8 +342,23 @@ fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
         return; // another loader is already bringing this pointlet up to date
     }
     sh.load_tasks.fetch_add(1, Relaxed);
-    let have = sh.loaded[i].load(Acquire);
+    let mut have = sh.loaded[i].load(Acquire);
     let want = sh.wanted[i].load(Relaxed);
+    let keep = sh.keep_from[i].load(Relaxed);
+    if want > have && keep >= have {
+        // Nothing held is still needed: restart the window at `keep` instead of reading the gap.
+        if let Ok(mut slot) = sh.slots[i].lock() {
+            let freed = slot.positions.len() as u64;
+            slot.positions = Vec::new();
+            slot.attribute = Vec::new();
+            slot.start = keep;
+            sh.held_from[i].store(keep, Release);
+            sh.loaded[i].store(keep, Release);
+            sh.ram_used.fetch_sub(freed * BYTES_PER_POINT, AcqRel);
+            sh.points_evicted.fetch_add(freed, Relaxed);
+            have = keep;
+        }
+    }
     if want > have {
         let len = sh.source.pointlet_len(i);
         let budget = sh.config.ram_budget as f64;
@@ -336,7 +374,10 @@ fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
         };
         let granted = reserve(sh, target - have);
         if granted > 0 {
-            let mut fresh = PointletData::default();
+            let mut fresh = PointletData {
+                start: have,
+                ..Default::default()
+            };
             fresh.positions.reserve_exact(granted as usize);
             fresh.attribute.reserve_exact(granted as usize);
             match sh.source.read(i, have..have + granted, &mut fresh) {
@@ -344,7 +385,7 @@ fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
                     if let Ok(mut slot) = sh.slots[i].lock() {
                         slot.positions.extend_from_slice(&fresh.positions);
                         slot.attribute.extend_from_slice(&fresh.attribute);
-                        sh.loaded[i].store(slot.len() as u32, Release);
+                        sh.loaded[i].store(slot.end(), Release);
                     }
                     sh.points_loaded.fetch_add(granted as u64, Relaxed);
                 }
@@ -379,16 +420,19 @@ fn unload<S: PointletSource>(sh: &Shared<S>, i: usize) {
         return;
     }
     sh.unload_tasks.fetch_add(1, Relaxed);
-    let keep = sh.wanted[i].load(Relaxed);
+    let want = sh.wanted[i].load(Relaxed);
+    let keep = sh.keep_from[i].load(Relaxed);
     if let Ok(mut slot) = sh.slots[i].lock() {
-        let len = slot.len() as u32;
-        if len > keep {
-            slot.truncate(keep as usize);
-            sh.loaded[i].store(keep, Release);
-            let freed = (len - keep) as u64;
-            sh.ram_used.fetch_sub(freed * BYTES_PER_POINT, AcqRel);
-            sh.points_evicted.fetch_add(freed, Relaxed);
-        }
+        let before = slot.len() as u64;
+        let (start, held_end) = (slot.start, slot.end());
+        let end = want.clamp(start, held_end);
+        slot.truncate((end - start) as usize);
+        slot.drop_before(keep);
+        sh.loaded[i].store(slot.end(), Release);
+        sh.held_from[i].store(slot.start, Release);
+        let freed = before - slot.len() as u64;
+        sh.ram_used.fetch_sub(freed * BYTES_PER_POINT, AcqRel);
+        sh.points_evicted.fetch_add(freed, Relaxed);
     }
     sh.busy[i].store(false, Release);
 }
@@ -469,7 +513,7 @@ mod tests {
         settle(&mut c, &wanted);
         for (i, w) in wanted.iter().enumerate() {
             assert!(c.resident(i) >= *w, "pointlet {i}: {} < {w}", c.resident(i));
-            c.with_points(i, 0..*w, |p, a| {
+            c.with_points(i, 0..*w, |_, p, a| {
                 for (j, (p, a)) in p.iter().zip(a).enumerate() {
                     assert_eq!(*p, [i as i32, j as i32, i as i32 ^ j as i32]);
                     assert_eq!(*a, (i as u32) << 16 | j as u32);
@@ -524,6 +568,49 @@ mod tests {
         let e = c.take_error().expect("error kept");
         assert!(e.to_string().contains("disk on fire"), "{e}");
         assert!(c.stats().read_errors > 0);
+    }
+
+    #[test]
+    fn a_window_slides_over_pointlets_larger_than_the_budget() {
+        // Budget 600 points, a pointlet of 1 000 walked through in steps: each step wants the
+        // next 250 points and keeps nothing before them.
+        let mut c = cache(600, None);
+        let mut wanted = vec![0u32; 100];
+        let mut keep = vec![0u32; 100];
+        for step in 0..4u32 {
+            keep[7] = step * 250;
+            wanted[7] = keep[7] + 250;
+            settle_window(&mut c, &wanted, &keep);
+            let held = c.held(7);
+            assert!(held.start <= keep[7] && held.end >= wanted[7], "{held:?}");
+            c.with_points(7, keep[7]..wanted[7], |first, p, a| {
+                assert_eq!(first, keep[7]);
+                for (j, (p, a)) in p.iter().zip(a).enumerate() {
+                    let j = first as usize + j;
+                    assert_eq!(*p, [7, j as i32, 7 ^ j as i32]);
+                    assert_eq!(*a, 7 << 16 | j as u32);
+                }
+            })
+            .expect("slot");
+        }
+        assert!(
+            c.held(7).start > 0,
+            "drawn points were dropped under pressure"
+        );
+        assert!(c.stats().ram_peak <= 600 * BYTES_PER_POINT);
+        assert!(c.stats().points_evicted > 0);
+        // A window past everything held starts there without reading the gap.
+        keep[9] = 900;
+        wanted[9] = 1000;
+        settle_window(&mut c, &wanted, &keep);
+        assert_eq!(c.held(9), 900..1000);
+    }
+
+    fn settle_window(c: &mut RamCache<Synthetic>, wanted: &[u32], keep: &[u32]) {
+        for _ in 0..50 {
+            c.request_window(wanted, keep);
+            c.wait_idle();
+        }
     }
 
     #[test]

@@ -12,10 +12,13 @@ pub struct SourceError {
     pub message: String,
 }
 
-/// The points of one pointlet prefix as the GPU wants them: quantized positions and one packed
+/// A run of one pointlet's points as the GPU wants them: quantized positions and one packed
 /// 32-bit attribute (an RGBA colour, or any attribute encoded in four bytes, as in the paper).
+/// In the cache, `start` is the index of the first held point (the run is a window of the
+/// pointlet's shuffled order: a prefix until already-drawn points are dropped).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointletData {
+    pub start: u32,
     pub positions: Vec<[i32; 3]>,
     pub attribute: Vec<u32>,
 }
@@ -37,11 +40,27 @@ impl PointletData {
         (self.positions.capacity() * 12 + self.attribute.capacity() * 4) as u64
     }
 
+    /// One past the last held point.
+    pub fn end(&self) -> u32 {
+        self.start + self.positions.len() as u32
+    }
+
+    /// Keeps the first `n` held points.
     pub fn truncate(&mut self, n: usize) {
         self.positions.truncate(n);
         self.attribute.truncate(n);
         self.positions.shrink_to_fit();
         self.attribute.shrink_to_fit();
+    }
+
+    /// Drops held points before point `from` of the pointlet.
+    pub fn drop_before(&mut self, from: u32) {
+        let n = (from.saturating_sub(self.start) as usize).min(self.positions.len());
+        self.positions.drain(..n);
+        self.attribute.drain(..n);
+        self.positions.shrink_to_fit();
+        self.attribute.shrink_to_fit();
+        self.start += n as u32;
     }
 }
 
