@@ -592,8 +592,11 @@ impl PointReader for PlyReader {
         let n = max
             .min(1 << 20)
             .min(usize::try_from(left).unwrap_or(usize::MAX));
-        if n == 0 {
+        if left == 0 {
             return Ok(None);
+        }
+        if n == 0 {
+            return Ok(Some(PointBatch::new(self.meta.layout)));
         }
         let mut b = PointBatch::with_capacity(self.meta.layout, n);
         for _ in 0..n {

@@ -14,9 +14,13 @@ use crate::{IoError, PointReader};
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::{LazItem, LazItemType, LazVlr};
 use pointlet_core::{PointBatch, SourceMeta};
+use rayon::prelude::*;
+use std::cell::Cell;
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
+use std::sync::Once;
 
 /// Largest decompressed chunk accepted (real chunks hold 50 000–1 000 000 points).
 const MAX_CHUNK_BYTES: u64 = 512 << 20;
@@ -118,42 +122,45 @@ impl LazReader {
             .seek(SeekFrom::Start(range.start))
             .and_then(|_| self.file.read_exact(&mut self.compressed))
             .map_err(|e| IoError::io(&self.path, e))?;
-        if self.layered {
-            let mut at = 0usize;
-            for (k, c) in group.iter().enumerate() {
-                let bytes = self.compressed.get(at..at + c.bytes as usize);
-                check_layered_chunk(bytes.unwrap_or_default(), self.vlr.items(), len, c.points)
-                    .map_err(|m| {
-                        IoError::invalid(&self.path, format!("LAZ chunk {}: {m}", first + k))
-                    })?;
-                at += c.bytes as usize;
-            }
-        }
-        let entries: Vec<ChunkTableEntry> = group
-            .iter()
-            .map(|c| ChunkTableEntry {
-                point_count: c.points,
-                byte_count: c.bytes,
-            })
-            .collect();
         self.decompressed.clear();
         self.decompressed.resize((points * len) as usize, 0);
-        laz::par_decompress(
-            &self.compressed,
-            &mut self.decompressed,
-            &self.vlr,
-            &entries,
-        )
-        .map_err(|e| {
-            IoError::invalid(
+        // One job per chunk: its compressed bytes, its share of the output.
+        let mut jobs = Vec::with_capacity(group.len());
+        let (mut src, mut dst) = (&self.compressed[..], &mut self.decompressed[..]);
+        for (k, c) in group.iter().enumerate() {
+            // The buffers were sized from these very chunks, so the splits always succeed.
+            let (Some((cin, rest_in)), Some((cout, rest_out))) = (
+                src.split_at_checked(c.bytes as usize),
+                std::mem::take(&mut dst).split_at_mut_checked((c.points * len) as usize),
+            ) else {
+                return Err(IoError::invalid(
+                    &self.path,
+                    format!(
+                        "LAZ chunk {} does not fit the buffers sized for it",
+                        first + k
+                    ),
+                ));
+            };
+            (src, dst) = (rest_in, rest_out);
+            jobs.push((first + k, *c, cin, cout));
+        }
+        let (vlr, layered) = (&self.vlr, self.layered);
+        let failed = jobs
+            .into_par_iter()
+            .map(|(index, c, cin, cout)| {
+                decompress_chunk(cin, cout, vlr, c, len, layered).map_err(|m| (index, m))
+            })
+            .filter_map(Result::err)
+            .min_by_key(|(index, _)| *index);
+        if let Some((index, m)) = failed {
+            return Err(IoError::invalid(
                 &self.path,
                 format!(
-                    "LAZ chunks {first} to {} cannot be decompressed ({e}): the file is damaged or holds fewer points than its header claims ({})",
-                    end - 1,
+                    "LAZ chunk {index} cannot be decompressed ({m}): the file is damaged or holds fewer points than its header claims ({})",
                     self.total
                 ),
-            )
-        })?;
+            ));
+        }
         self.consumed = 0;
         self.next_chunk = end;
         Ok(())
@@ -171,9 +178,12 @@ impl PointReader for LazReader {
 
     fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError> {
         let len = self.decoder.record_len();
+        if self.read == self.total {
+            return Ok(None);
+        }
         let n = batch_points(max, self.total - self.read, len);
         if n == 0 {
-            return Ok(None);
+            return Ok(Some(PointBatch::new(self.decoder.layout())));
         }
         if self.consumed >= self.decompressed.len() {
             self.decompress_group(n as u64)?;
@@ -199,6 +209,58 @@ impl PointReader for LazReader {
         self.read += n as u64;
         Ok(Some(batch))
     }
+}
+
+/// Decompresses one chunk into `out` (exactly its points' records), after checking what the
+/// `laz` crate would trust; a panic of the crate on damaged data becomes an error.
+fn decompress_chunk(
+    compressed: &[u8],
+    out: &mut [u8],
+    vlr: &LazVlr,
+    c: Chunk,
+    record_len: u64,
+    layered: bool,
+) -> Result<(), String> {
+    if layered {
+        check_layered_chunk(compressed, vlr.items(), record_len, c.points)?;
+    }
+    let entry = [ChunkTableEntry {
+        point_count: c.points,
+        byte_count: c.bytes,
+    }];
+    guarded(|| laz::par_decompress(compressed, out, vlr, &entry))?.map_err(|e| e.to_string())
+}
+
+thread_local! {
+    /// Set while this thread runs `laz` code under [`guarded`].
+    static GUARDED: Cell<bool> = const { Cell::new(false) };
+}
+static QUIET_HOOK: Once = Once::new();
+
+/// Runs `f` (a call into the `laz` crate), turning a panic into an error message. The crate's
+/// decoders assert and index on the data they decode, so damaged chunks can make them panic;
+/// such panics are caught here, and the panic hook stays silent for them (other panics are
+/// reported as before).
+fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !GUARDED.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    let was = GUARDED.with(|g| g.replace(true));
+    let result = std::panic::catch_unwind(AssertUnwindSafe(f));
+    GUARDED.with(|g| g.set(was));
+    result.map_err(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown failure".into());
+        format!("the LAZ decoder failed: {what}")
+    })
 }
 
 /// The item types LASzip must list for `format` with `extra` extra bytes, in record order.
@@ -379,11 +441,13 @@ fn read_chunk_table(
         }
     }
     file.seek(SeekFrom::Start(table_at))?;
-    let table = ChunkTable::read(&mut BufReader::new(&mut *file), variable).map_err(|e| {
-        inv(format!(
-            "the LAZ chunk table cannot be read ({e}): the file is truncated or damaged"
-        ))
-    })?;
+    let table = guarded(|| ChunkTable::read(&mut BufReader::new(&mut *file), variable))
+        .and_then(|r| r.map_err(|e| e.to_string()))
+        .map_err(|e| {
+            inv(format!(
+                "the LAZ chunk table cannot be read ({e}): the file is truncated or damaged"
+            ))
+        })?;
     let record_len = u64::from(h.point_record_length);
     let mut chunks = Vec::with_capacity(table.len());
     let (mut offset, mut total) = (first_chunk, 0u64);

@@ -115,9 +115,12 @@ impl PointReader for LasReader {
 
     fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError> {
         let len = self.decoder.record_len();
+        if self.read == self.total {
+            return Ok(None);
+        }
         let n = batch_points(max, self.total - self.read, len);
         if n == 0 {
-            return Ok(None);
+            return Ok(Some(PointBatch::new(self.decoder.layout())));
         }
         self.buf.resize(n * len, 0);
         if let Err(e) = self.file.read_exact(&mut self.buf) {

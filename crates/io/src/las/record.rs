@@ -268,9 +268,9 @@ impl Encoder {
                 .q
                 .quantize(p)
                 .map_err(|e| (i, format!("position {p:?}: {e}")))?;
-            for a in 0..3 {
-                stats.min[a] = stats.min[a].min(q[a]);
-                stats.max[a] = stats.max[a].max(q[a]);
+            for ((lo, hi), v) in stats.min.iter_mut().zip(stats.max.iter_mut()).zip(q) {
+                *lo = (*lo).min(v);
+                *hi = (*hi).max(v);
             }
             put(rec, 0, &q[0].to_le_bytes());
             put(rec, 4, &q[1].to_le_bytes());
