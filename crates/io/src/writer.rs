@@ -24,6 +24,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 const HEADER_SIZE: usize = 375;
 const VLR_HEADER: usize = 54;
 const MAX_VLR_DATA: usize = u16::MAX as usize;
+/// Points per LAZ chunk (LASzip's usual size).
+const LAZ_CHUNK_POINTS: u32 = 50_000;
 
 /// What to write.
 #[derive(Clone, Debug)]
@@ -61,7 +63,9 @@ pub struct LasWriter {
     offset_to_point_data: u32,
     number_of_vlrs: u32,
     evlrs: Vec<Vlr>,
+    /// Encoded records: one batch for LAS; for LAZ, gathered up to `laz_flush_bytes`.
     buf: Vec<u8>,
+    laz_flush_bytes: usize,
     finished: bool,
 }
 
@@ -128,6 +132,7 @@ impl LasWriter {
             }
         }
         let encoder = Encoder::new(format, layout.extra_bytes, config.quantization);
+        let encoder_len = encoder.record_len();
         let record_len = u16::try_from(encoder.record_len()).map_err(|_| {
             IoError::invalid(
                 path,
@@ -147,6 +152,7 @@ impl LasWriter {
             let vlr = LazVlrBuilder::default()
                 .with_point_format(format.id, layout.extra_bytes)
                 .map_err(|e| IoError::unsupported(path, format!("LAZ: {e}")))?
+                .with_fixed_chunk_size(LAZ_CHUNK_POINTS)
                 .build();
             let mut data = Vec::new();
             vlr.write_to(&mut data).map_err(|e| IoError::io(path, e))?;
@@ -190,6 +196,10 @@ impl LasWriter {
             number_of_vlrs: vlrs.len() as u32,
             evlrs,
             buf: Vec::new(),
+            laz_flush_bytes: LAZ_CHUNK_POINTS as usize
+                * encoder_len
+                * 2
+                * rayon::current_num_threads().max(1),
             finished: false,
             quantization: config.quantization,
             compress: config.compress,
@@ -221,12 +231,12 @@ impl LasWriter {
         batch
             .check_shape()
             .map_err(|e| IoError::invalid(&path, format!("malformed batch: {e}")))?;
-        let l = batch.layout;
+        let (l, f) = (batch.layout, self.format);
         for (has, fits, what) in [
-            (l.gps_time, self.layout.gps_time, "GPS time"),
-            (l.rgb, self.layout.rgb, "colour"),
-            (l.nir, self.layout.nir, "near infrared"),
-            (l.waveform, self.layout.waveform, "waveform packets"),
+            (l.gps_time, f.gps_time.is_some(), "GPS time"),
+            (l.rgb, f.rgb.is_some(), "colour"),
+            (l.nir, f.nir.is_some(), "near infrared"),
+            (l.waveform, f.waveform.is_some(), "waveform packets"),
             (
                 l.extra_bytes > self.layout.extra_bytes,
                 false,
@@ -238,12 +248,14 @@ impl LasWriter {
                     &path,
                     format!(
                         "points carry {what} but the writer was created for point format {} with {} extra bytes",
-                        self.format.id, self.layout.extra_bytes
+                        f.id, self.layout.extra_bytes
                     ),
                 ));
             }
         }
-        self.buf.clear();
+        if matches!(self.sink, Some(Sink::Plain(_))) {
+            self.buf.clear();
+        }
         let before = self.stats.points;
         self.encoder
             .encode(batch, &mut self.buf, &mut self.stats)
@@ -253,7 +265,13 @@ impl LasWriter {
         let io = |e| IoError::io(&path, e);
         match self.sink.as_mut() {
             Some(Sink::Plain(w)) => w.write_all(&self.buf).map_err(io),
-            Some(Sink::Laz(c)) => c.compress_many(&self.buf).map_err(io),
+            // Records gather until every thread gets whole chunks to compress.
+            Some(Sink::Laz(c)) if self.buf.len() >= self.laz_flush_bytes => {
+                c.compress_many(&self.buf).map_err(io)?;
+                self.buf.clear();
+                Ok(())
+            }
+            Some(Sink::Laz(_)) => Ok(()),
             None => Err(IoError::invalid(&path, "the writer was already finished")),
         }
     }
@@ -266,6 +284,7 @@ impl LasWriter {
         let mut out = match self.sink.take() {
             Some(Sink::Plain(w)) => w,
             Some(Sink::Laz(mut c)) => {
+                c.compress_many(&self.buf).map_err(io)?;
                 c.done()
                     .map_err(|e| IoError::invalid(&path, format!("LAZ: {e}")))?;
                 c.into_inner()

@@ -116,77 +116,138 @@ impl Sep {
         }
     }
 
-    fn split<'a>(&self, line: &'a str) -> Vec<&'a str> {
+    /// The fields of `line`, without allocating (an empty CSV field stays, as an empty str).
+    fn fields(self, line: &str) -> impl Iterator<Item = &str> {
+        line.split(move |c: char| match self {
+            Sep::Whitespace => c.is_whitespace(),
+            Sep::Comma => c == ',',
+            Sep::Semicolon => c == ';',
+        })
+        .map(str::trim)
+        .filter(move |f| self != Sep::Whitespace || !f.is_empty())
+    }
+}
+
+/// What a column holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Field {
+    X,
+    Y,
+    Z,
+    Intensity,
+    Red,
+    Green,
+    Blue,
+}
+
+impl Field {
+    fn name(self) -> &'static str {
         match self {
-            Sep::Whitespace => line.split_whitespace().collect(),
-            Sep::Comma => line.split(',').map(str::trim).collect(),
-            Sep::Semicolon => line.split(';').map(str::trim).collect(),
+            Field::X => "x",
+            Field::Y => "y",
+            Field::Z => "z",
+            Field::Intensity => "intensity",
+            Field::Red => "red",
+            Field::Green => "green",
+            Field::Blue => "blue",
         }
     }
 }
 
-/// Which field holds what.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What each column up to the last one used holds.
+#[derive(Clone, Debug, PartialEq, Eq)]
 struct Columns {
     sep: Sep,
-    xyz: [usize; 3],
-    intensity: Option<usize>,
-    rgb: Option<[usize; 3]>,
-    /// Fields a data line needs at least.
-    needed: usize,
+    slots: Vec<Option<Field>>,
 }
 
 impl Columns {
     fn by_count(sep: Sep, n: usize) -> Columns {
-        let (intensity, rgb) = match n {
-            4 => (Some(3), None),
-            6 => (None, Some([3, 4, 5])),
-            7 => (Some(3), Some([4, 5, 6])),
-            _ => (None, None),
+        use Field::*;
+        let fields: &[Field] = match n {
+            4 => &[X, Y, Z, Intensity],
+            6 => &[X, Y, Z, Red, Green, Blue],
+            7 => &[X, Y, Z, Intensity, Red, Green, Blue],
+            _ => &[X, Y, Z],
         };
-        Columns::new(sep, [0, 1, 2], intensity, rgb)
-    }
-
-    fn new(sep: Sep, xyz: [usize; 3], intensity: Option<usize>, rgb: Option<[usize; 3]>) -> Self {
-        let needed = xyz
-            .iter()
-            .chain(intensity.iter())
-            .chain(rgb.iter().flatten())
-            .max()
-            .map_or(3, |m| m + 1);
         Columns {
             sep,
-            xyz,
-            intensity,
-            rgb,
-            needed,
+            slots: fields.iter().copied().map(Some).collect(),
         }
     }
 
-    fn from_names(sep: Sep, names: &[&str]) -> Result<Columns, String> {
+    fn from_names<'a>(sep: Sep, names: impl Iterator<Item = &'a str>) -> Result<Columns, String> {
+        let names: Vec<&str> = names.collect();
         let find = |want: &[&str]| {
             names
                 .iter()
                 .position(|n| want.iter().any(|w| n.eq_ignore_ascii_case(w)))
         };
+        let mut slots = vec![None; names.len()];
         let (Some(x), Some(y), Some(z)) = (find(&["x"]), find(&["y"]), find(&["z"])) else {
             return Err(format!(
                 "the header line names the columns {names:?} but not x, y and z"
             ));
         };
-        let rgb = match (
+        for (at, f) in [(x, Field::X), (y, Field::Y), (z, Field::Z)] {
+            slots[at] = Some(f);
+        }
+        if let Some(i) = find(&["i", "intensity"]) {
+            slots[i] = Some(Field::Intensity);
+        }
+        if let (Some(r), Some(g), Some(b)) = (
             find(&["r", "red"]),
             find(&["g", "green"]),
             find(&["b", "blue"]),
         ) {
-            (Some(r), Some(g), Some(b)) => Some([r, g, b]),
-            _ => None,
-        };
-        Ok(Columns::new(sep, [x, y, z], find(&["i", "intensity"]), rgb))
+            for (at, f) in [(r, Field::Red), (g, Field::Green), (b, Field::Blue)] {
+                slots[at] = Some(f);
+            }
+        }
+        // Columns after the last one used need not be present.
+        while slots.last() == Some(&None) {
+            slots.pop();
+        }
+        Ok(Columns { sep, slots })
+    }
+
+    fn has(&self, f: Field) -> bool {
+        self.slots.contains(&Some(f))
+    }
+
+    fn has_rgb(&self) -> bool {
+        self.has(Field::Red)
+    }
+
+    fn parse(&self, line: &str, line_no: u64) -> Result<Record, String> {
+        let mut r = Record::default();
+        let mut seen = 0;
+        for (text, slot) in self.sep.fields(line).zip(self.slots.iter()) {
+            seen += 1;
+            let Some(f) = slot else { continue };
+            let v = number(text, f.name(), line_no)?;
+            match f {
+                Field::X => r.xyz[0] = v,
+                Field::Y => r.xyz[1] = v,
+                Field::Z => r.xyz[2] = v,
+                Field::Intensity => r.intensity = v,
+                Field::Red => r.rgb[0] = v,
+                Field::Green => r.rgb[1] = v,
+                Field::Blue => r.rgb[2] = v,
+            }
+        }
+        if seen < self.slots.len() {
+            return Err(format!(
+                "line {line_no} has {seen} fields, {} are needed",
+                self.slots.len()
+            ));
+        }
+        Ok(r)
     }
 }
 
 /// One parsed data line.
+#[derive(Default)]
 struct Record {
     xyz: [f64; 3],
     intensity: f64,
@@ -203,38 +264,6 @@ fn number(field: &str, what: &str, line: u64) -> Result<f64, String> {
         ));
     }
     Ok(v)
-}
-
-impl Columns {
-    fn parse(&self, line: &str, line_no: u64) -> Result<Record, String> {
-        let f = self.sep.split(line);
-        if f.len() < self.needed {
-            return Err(format!(
-                "line {line_no} has {} fields, {} are needed",
-                f.len(),
-                self.needed
-            ));
-        }
-        let get = |i: usize, what: &str| number(f.get(i).copied().unwrap_or(""), what, line_no);
-        let xyz = [
-            get(self.xyz[0], "x")?,
-            get(self.xyz[1], "y")?,
-            get(self.xyz[2], "z")?,
-        ];
-        let intensity = match self.intensity {
-            Some(i) => get(i, "intensity")?,
-            None => 0.0,
-        };
-        let rgb = match self.rgb {
-            Some([r, g, b]) => [get(r, "red")?, get(g, "green")?, get(b, "blue")?],
-            None => [0.0; 3],
-        };
-        Ok(Record {
-            xyz,
-            intensity,
-            rgb,
-        })
-    }
 }
 
 /// What a line is, once the columns are known.
@@ -273,25 +302,22 @@ fn detect(path: &Path, lines: &mut LineReader<BufReader<File>>) -> Result<(Colum
             continue;
         };
         let sep = Sep::of(t);
-        let fields = sep.split(t);
-        if first && fields.len() == 1 && t.parse::<u64>().is_ok() {
+        let count = sep.fields(t).count();
+        if first && count == 1 && t.parse::<u64>().is_ok() {
             first = false;
             continue; // the point count line of a .pts file
         }
-        let numeric = fields.iter().all(|f| f.parse::<f64>().is_ok());
+        let numeric = sep.fields(t).all(|f| f.parse::<f64>().is_ok());
         if numeric {
-            if fields.len() < 3 {
+            if count < 3 {
                 return Err(IoError::invalid(
                     path,
-                    format!(
-                        "line {n} has {} fields; at least x, y and z are needed",
-                        fields.len()
-                    ),
+                    format!("line {n} has {count} fields; at least x, y and z are needed"),
                 ));
             }
-            return Ok((Columns::by_count(sep, fields.len()), n - 1));
+            return Ok((Columns::by_count(sep, count), n - 1));
         }
-        let columns = Columns::from_names(sep, &fields)
+        let columns = Columns::from_names(sep, sep.fields(t))
             .map_err(|m| IoError::invalid(path, format!("line {n}: {m}")))?;
         return Ok((columns, n));
     }
@@ -328,10 +354,10 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         let r = columns.parse(t, n).map_err(|m| IoError::invalid(path, m))?;
         bounds.grow(r.xyz);
         count += 1;
-        if columns.intensity.is_some() {
+        if columns.has(Field::Intensity) {
             intensity.add(r.intensity);
         }
-        if columns.rgb.is_some() {
+        if columns.has_rgb() {
             r.rgb.iter().for_each(|c| colour.add(*c));
         }
     }
@@ -342,7 +368,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         ));
     }
     let layout = PointLayout {
-        rgb: columns.rgb.is_some(),
+        rgb: columns.has_rgb(),
         ..Default::default()
     };
     let sep = match columns.sep {

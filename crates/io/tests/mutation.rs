@@ -94,3 +94,28 @@ fn truncations_and_byte_flips_never_panic_or_hang() {
     }
     assert!(cases >= 300, "{cases} cases");
 }
+
+/// The header parser on random bytes behind a real signature and version: Ok or Err only.
+#[test]
+fn parse_header_survives_random_headers() {
+    let mut rng = SplitMix64::new(42);
+    let real = std::fs::read(data("simple1_4.las")).expect("read");
+    for case in 0..5_000 {
+        let len = rng.below(1_200) as usize;
+        let mut bytes: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
+        if case % 2 == 0 {
+            // Half start from a real 1.4 header so the parse gets past the first checks.
+            let keep = len.min(real.len());
+            bytes[..keep].copy_from_slice(&real[..keep]);
+            for _ in 0..1 + rng.below(6) {
+                if len > 0 {
+                    let at = rng.below(len.min(400) as u64) as usize;
+                    bytes[at] = rng.next_u64() as u8;
+                }
+            }
+        } else if len >= 4 {
+            bytes[..4].copy_from_slice(b"LASF");
+        }
+        let _ = pointlet_io::las::parse_header(&bytes);
+    }
+}

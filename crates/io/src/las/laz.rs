@@ -5,7 +5,9 @@
 //! Everything the `laz` crate would trust blindly is checked first: the LASzip items against
 //! the point format, every chunk's range inside the file, point counts against the header, and
 //! for layered chunks (formats 6–10) the point count and layer sizes each chunk begins with,
-//! so a damaged file can neither make it allocate gigabytes nor index out of bounds.
+//! so a damaged file cannot make it allocate gigabytes. Damaged compressed bytes can still trip
+//! the crate's decoders (assertions, arithmetic overflow); those panics are caught per chunk
+//! and reported as errors (see [`guarded`]).
 
 use super::header::LasHeader;
 use super::record::{Decoder, PointFormat};
