@@ -90,11 +90,15 @@ fn kind_of_extension(path: &Path) -> Option<Kind> {
 /// Opens any supported point file. LAS/LAZ headers are validated here; PLY and text files get
 /// one full pre-pass for their exact point count and bounds (they have no header bounds).
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
-    let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
-    let meta = file.metadata().map_err(|e| IoError::io(path, e))?;
+    let meta = std::fs::metadata(path).map_err(|e| IoError::io(path, e))?;
     if meta.is_dir() {
         return Err(IoError::invalid(path, "is a folder, not a point file"));
     }
+    if !meta.is_file() {
+        // A FIFO or device would block or never end.
+        return Err(IoError::invalid(path, "is not a regular file"));
+    }
+    let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
     let mut magic = [0u8; 4];
     let mut got = 0;
     while got < magic.len() {

@@ -203,6 +203,14 @@ fn garbage_and_unknown_files() {
     std::fs::write(&empty, b"").expect("write");
     fails(&empty, &[]);
     fails(dir.path(), &["folder"]);
+    // A FIFO would block the reader forever: refused before opening.
+    let fifo = dir.path().join("pipe.xyz");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo");
+    assert!(made.success());
+    fails(&fifo, &["regular file"]);
 }
 
 #[test]
