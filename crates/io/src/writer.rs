@@ -198,7 +198,7 @@ impl LasWriter {
             buf: Vec::new(),
             laz_flush_bytes: LAZ_CHUNK_POINTS as usize
                 * encoder_len
-                * 2
+                * 4
                 * rayon::current_num_threads().max(1),
             finished: false,
             quantization: config.quantization,
@@ -265,10 +265,14 @@ impl LasWriter {
         let io = |e| IoError::io(&path, e);
         match self.sink.as_mut() {
             Some(Sink::Plain(w)) => w.write_all(&self.buf).map_err(io),
-            // Records gather until every thread gets whole chunks to compress.
+            // Records gather until every thread gets whole chunks; only whole chunks go to the
+            // compressor, which would compress a partial one alone, on one thread.
             Some(Sink::Laz(c)) if self.buf.len() >= self.laz_flush_bytes => {
-                c.compress_many(&self.buf).map_err(io)?;
-                self.buf.clear();
+                let chunk = LAZ_CHUNK_POINTS as usize * self.encoder.record_len();
+                let whole = self.buf.len() / chunk * chunk;
+                c.compress_many(self.buf.get(..whole).unwrap_or_default())
+                    .map_err(io)?;
+                self.buf.drain(..whole);
                 Ok(())
             }
             Some(Sink::Laz(_)) => Ok(()),

@@ -362,3 +362,29 @@ fn bad_configurations_are_refused() {
     assert!(e.contains("x.las"), "{e}");
     assert!(listing(dir.path()).is_empty());
 }
+
+/// Enough points for the LAZ writer to hand whole chunks to the compressor several times, in
+/// batches that never align with chunks.
+#[test]
+fn large_laz_in_small_batches_round_trips() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = pointlet_io::las::PointFormat::new(3).expect("format");
+    let points = synthetic(f.layout(0), 1_700_000, false);
+    let out = dir.path().join("large.laz");
+    let cfg = LasWriterConfig {
+        quantization: Quantization {
+            scale: [0.01; 3],
+            offset: [1000.0, 2000.0, 0.0],
+        },
+        point_format: 3,
+        layout: f.layout(0),
+        vlrs: Vec::new(),
+        compress: true,
+    };
+    assert_eq!(write(&out, cfg, &points, 7_777), points.len() as u64);
+    let oracle = las_points(&out);
+    assert_eq!(oracle.len(), points.len());
+    for (i, o) in oracle.iter().enumerate() {
+        assert_eq!(&our_fingerprint(&points, i), o, "point {i}");
+    }
+}
