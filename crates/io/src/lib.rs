@@ -2,6 +2,9 @@
 //!
 //! Every reader streams: [`PointReader::read_batch`] hands out structure-of-arrays batches and
 //! no reader holds a whole file in memory unless the format forces it. Coordinates stay f64.
+//!
+//! [`open`] picks the reader: LAS/LAZ/COPC by the `LASF` signature (whatever the extension),
+//! otherwise by extension (`.ply`; `.xyz`, `.txt`, `.csv`, `.pts`).
 
 pub mod generate;
 pub mod las;
@@ -10,6 +13,7 @@ pub mod writer;
 pub mod xyz;
 
 use pointlet_core::{PointBatch, SourceMeta};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -62,4 +66,177 @@ pub trait PointReader: Send {
     /// The next batch of at most `max` points; `None` once every point was read.
     /// A reader that finds fewer points than its header claims returns an error, not `None`.
     fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError>;
+}
+
+/// The kinds of point file [`open`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Las,
+    Ply,
+    Text,
+}
+
+/// The kind an extension names (case-insensitive); `.copc.laz` ends in `.laz`.
+fn kind_of_extension(path: &Path) -> Option<Kind> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "las" | "laz" => Some(Kind::Las),
+        "ply" => Some(Kind::Ply),
+        "xyz" | "txt" | "csv" | "pts" => Some(Kind::Text),
+        _ => None,
+    }
+}
+
+/// Opens any supported point file. LAS/LAZ headers are validated here; PLY and text files get
+/// one full pre-pass for their exact point count and bounds (they have no header bounds).
+pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
+    let meta = std::fs::metadata(path).map_err(|e| IoError::io(path, e))?;
+    if meta.is_dir() {
+        return Err(IoError::invalid(path, "is a folder, not a point file"));
+    }
+    if !meta.is_file() {
+        // A FIFO or device would block or never end.
+        return Err(IoError::invalid(path, "is not a regular file"));
+    }
+    let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let mut magic = [0u8; 4];
+    let mut got = 0;
+    while got < magic.len() {
+        match file.read(&mut magic[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(IoError::io(path, e)),
+        }
+    }
+    drop(file);
+    if &magic[..got] == b"LASF" {
+        return las::open(path);
+    }
+    match kind_of_extension(path) {
+        Some(Kind::Las) => Err(IoError::invalid(
+            path,
+            "not a LAS/LAZ file: it does not start with the \"LASF\" signature",
+        )),
+        Some(Kind::Ply) => ply::open(path),
+        Some(Kind::Text) => xyz::open(path),
+        None if magic.starts_with(b"ply") => ply::open(path),
+        None => Err(IoError::unsupported(
+            path,
+            "unknown point file type: expected .las, .laz, .copc.laz, .ply, .xyz, .txt, .csv or .pts",
+        )),
+    }
+}
+
+/// Files named as inputs are kept as given (a missing one is an error); folders expand,
+/// recursively, to their files with a supported extension, sorted so merges are deterministic.
+/// Folders reached through symbolic links are not entered (no cycles).
+pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, IoError> {
+    let mut out = Vec::new();
+    for input in inputs {
+        let meta = std::fs::metadata(input).map_err(|e| IoError::io(input, e))?;
+        if meta.is_dir() {
+            let mut found = Vec::new();
+            walk(input, &mut found)?;
+            found.sort();
+            out.extend(found);
+        } else {
+            out.push(input.clone());
+        }
+    }
+    Ok(out)
+}
+
+fn walk(dir: &Path, found: &mut Vec<PathBuf>) -> Result<(), IoError> {
+    for entry in std::fs::read_dir(dir).map_err(|e| IoError::io(dir, e))? {
+        let entry = entry.map_err(|e| IoError::io(dir, e))?;
+        let path = entry.path();
+        let kind = entry.file_type().map_err(|e| IoError::io(&path, e))?;
+        if kind.is_dir() {
+            walk(&path, found)?;
+        } else if kind_of_extension(&path).is_some() && path.is_file() {
+            found.push(path);
+        }
+    }
+    Ok(())
+}
+
+/// How a numeric text/PLY column becomes a 16-bit LAS-style value, decided from the pre-pass.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct ValueRange {
+    pub min: f64,
+    pub max: f64,
+    /// Some value has a fractional part.
+    pub fractional: bool,
+    pub seen: bool,
+}
+
+impl ValueRange {
+    pub fn add(&mut self, v: f64) {
+        if !self.seen {
+            (self.min, self.max, self.seen) = (v, v, true);
+        }
+        self.min = self.min.min(v);
+        self.max = self.max.max(v);
+        self.fractional |= v.fract() != 0.0;
+    }
+
+    fn is_unit(&self) -> bool {
+        self.fractional && self.min >= 0.0 && self.max <= 1.0
+    }
+
+    /// Intensity: fractions within 0–1 are scaled to 0–65535; a range with negative values
+    /// (e.g. PTS's -2048..2047) is shifted to start at 0; then rounded and clamped to 0–65535.
+    pub fn intensity_scale(&self) -> Scale {
+        if self.is_unit() {
+            Scale::mul(65535.0)
+        } else if self.seen && self.min < 0.0 {
+            Scale {
+                add: -self.min,
+                mul: 1.0,
+            }
+        } else {
+            Scale::mul(1.0)
+        }
+    }
+
+    /// Colour (all channels together): fractions within 0–1 are scaled to 0–65535, values
+    /// within 0–255 by 257 (LAS keeps 16-bit colour), anything larger is kept as is.
+    pub fn colour_scale(&self) -> Scale {
+        if self.is_unit() {
+            Scale::mul(65535.0)
+        } else if self.max <= 255.0 {
+            Scale::mul(257.0)
+        } else {
+            Scale::mul(1.0)
+        }
+    }
+}
+
+/// `(v + add) * mul`, rounded and clamped to u16.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Scale {
+    pub add: f64,
+    pub mul: f64,
+}
+
+impl Scale {
+    pub fn mul(mul: f64) -> Scale {
+        Scale { add: 0.0, mul }
+    }
+
+    #[inline]
+    pub fn apply(&self, v: f64) -> u16 {
+        ((v + self.add) * self.mul).round().clamp(0.0, 65535.0) as u16
+    }
+}
+
+/// Columns PLY and text points lack: a single return, never classified, no flags.
+pub(crate) fn push_defaults(b: &mut PointBatch) {
+    b.returns.push(0x11);
+    b.flags.push(0);
+    b.classification.push(0);
+    b.scan_angle.push(0.0);
+    b.user_data.push(0);
+    b.point_source_id.push(0);
 }

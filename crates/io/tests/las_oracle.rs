@@ -1,0 +1,115 @@
+//! Our LAS/LAZ/COPC reader against the `las` crate: every point, every attribute, every file
+//! of ../shared/data; and the header metadata (counts, bounds, quantization, kept records).
+
+mod common;
+use common::*;
+
+#[test]
+fn every_shared_file_matches_the_las_crate_point_for_point() {
+    for path in shared_files() {
+        let expected = las_points(&path);
+        // An odd batch size crosses LAZ chunk and block boundaries at awkward places.
+        for batch in [777, 1 << 20] {
+            let mut r = pointlet_io::open(&path).expect("open");
+            let ours = read_all(r.as_mut(), batch);
+            assert_eq!(ours.len(), expected.len(), "{}", path.display());
+            for (i, e) in expected.iter().enumerate() {
+                assert_eq!(
+                    &our_fingerprint(&ours, i),
+                    e,
+                    "{} point {i} (batch {batch})",
+                    path.display()
+                );
+            }
+            assert!(r.read_batch(10).expect("after the end").is_none());
+        }
+    }
+}
+
+#[test]
+fn header_metadata_matches_the_las_crate() {
+    for path in shared_files() {
+        let r = pointlet_io::open(&path).expect("open");
+        let m = r.meta();
+        let l = las::Reader::from_path(&path).expect("las");
+        let h = l.header();
+        let name = path.display();
+        assert_eq!(m.point_count, h.number_of_points(), "{name}");
+        let b = h.bounds();
+        assert_eq!(m.bounds.min, [b.min.x, b.min.y, b.min.z], "{name}");
+        assert_eq!(m.bounds.max, [b.max.x, b.max.y, b.max.z], "{name}");
+        let q = m.quantization.expect("LAS has quantization");
+        let t = h.transforms();
+        assert_eq!(q.scale, [t.x.scale, t.y.scale, t.z.scale], "{name}");
+        assert_eq!(q.offset, [t.x.offset, t.y.offset, t.z.offset], "{name}");
+        let f = h.point_format();
+        assert_eq!(
+            m.las_point_format,
+            Some(f.to_u8().expect("format") & 0x3F),
+            "{name}"
+        );
+        assert_eq!(m.layout.gps_time, f.has_gps_time, "{name}");
+        assert_eq!(m.layout.rgb, f.has_color, "{name}");
+        assert_eq!(m.layout.nir, f.has_nir, "{name}");
+        assert_eq!(m.layout.waveform, f.has_waveform, "{name}");
+        assert_eq!(m.layout.extra_bytes, f.extra_bytes, "{name}");
+        let v = h.version();
+        let kind = if f.is_compressed { "LAZ" } else { "LAS" };
+        assert!(
+            m.format.starts_with(&format!(
+                "{kind} {}.{} point format {}",
+                v.major,
+                v.minor,
+                f.to_u8().expect("format") & 0x3F
+            )),
+            "{name}: {}",
+            m.format
+        );
+        // Kept records: exactly the CRS and extra-bytes ones, verbatim, VLRs then EVLRs.
+        let want: Vec<(String, u16, Vec<u8>, bool)> = h
+            .vlrs()
+            .iter()
+            .map(|v| (v, false))
+            .chain(h.evlrs().iter().map(|v| (v, true)))
+            .filter(|(v, _)| {
+                v.user_id == "LASF_Projection" || (v.user_id == "LASF_Spec" && v.record_id == 4)
+            })
+            .map(|(v, e)| (v.user_id.clone(), v.record_id, v.data.clone(), e))
+            .collect();
+        let got: Vec<(String, u16, Vec<u8>, bool)> = m
+            .vlrs
+            .iter()
+            .map(|v| (v.user_id.clone(), v.record_id, v.data.clone(), v.extended))
+            .collect();
+        assert_eq!(got, want, "{name}");
+    }
+}
+
+#[test]
+fn format_names() {
+    let name = |f: &str| {
+        pointlet_io::open(&data(f))
+            .expect("open")
+            .meta()
+            .format
+            .clone()
+    };
+    assert_eq!(name("simple.las"), "LAS 1.2 point format 3");
+    assert_eq!(name("simple.laz"), "LAZ 1.2 point format 3");
+    assert_eq!(name("simple.copc.laz"), "LAZ 1.4 point format 7 (COPC)");
+    assert_eq!(name("test1_4.las"), "LAS 1.4 point format 6");
+}
+
+#[test]
+fn parse_header_reads_the_whole_file_bytes() {
+    let bytes = std::fs::read(data("simple1_4.las")).expect("read");
+    let h = pointlet_io::las::parse_header(&bytes).expect("header");
+    assert_eq!(h.version, (1, 4));
+    assert_eq!(h.point_format, 7);
+    assert_eq!(h.point_count, 22_600);
+    assert!(!h.compressed);
+    let copc = std::fs::read(data("simple.copc.laz")).expect("read");
+    let h = pointlet_io::las::parse_header(&copc).expect("header");
+    assert!(h.compressed && h.copc && h.laszip.is_some());
+    assert_eq!(h.kept_vlrs.len(), 1, "the WKT record");
+}
