@@ -208,9 +208,8 @@ impl StoreBuilder {
         }
         let stem = output
             .file_name()
-            .and_then(|n| n.to_str())
-            .ok_or_else(|| StoreError::build(output, "the output path has no file name"))?
-            .to_string();
+            .map(|n| n.to_string_lossy().into_owned())
+            .ok_or_else(|| StoreError::build(output, "the output path has no file name"))?;
         let out_dir = match output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
