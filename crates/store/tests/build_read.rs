@@ -42,6 +42,15 @@ fn in_memory_and_out_of_core_builds_are_byte_identical_and_clean() {
     assert!(s_ooc.runs > 5, "expected several runs, got {}", s_ooc.runs);
     let s_beside = build(&beside, config(1 << 20, 100, 9), &m, &batches);
     assert!(s_beside.runs > 1);
+    // A source that claims no points gets one whole-budget run, spilled when full.
+    let unclaimed = dir.path().join("unclaimed.pointlet");
+    let s_unclaimed = build(
+        &unclaimed,
+        config(1 << 20, 100, 9),
+        &meta(RGB_GPS_EXTRA, 0),
+        &batches,
+    );
+    assert!(s_unclaimed.runs > 1);
     let a = std::fs::read(&mem).unwrap();
     assert!(
         a == std::fs::read(&ooc).unwrap(),
@@ -51,12 +60,13 @@ fn in_memory_and_out_of_core_builds_are_byte_identical_and_clean() {
         a == std::fs::read(&beside).unwrap(),
         "1 MiB budget differs from in memory"
     );
-    assert_eq!(s_mem.bytes, a.len() as u64);
-    assert_eq!(
-        listing(dir.path()),
-        vec![beside, mem, ooc],
-        "temporary files left"
+    assert!(
+        a == std::fs::read(&unclaimed).unwrap(),
+        "unclaimed count differs from in memory"
     );
+    assert_eq!(s_mem.bytes, a.len() as u64);
+    let expected = vec![beside, mem, ooc, unclaimed];
+    assert_eq!(listing(dir.path()), expected, "temporary files left");
     assert!(listing(runs_dir.path()).is_empty(), "run files left");
 }
 
