@@ -476,10 +476,11 @@ impl StoreBuilder {
             .file
             .take()
             .ok_or_else(|| StoreError::build(&self.output, "the output is already closed"))?;
-        let temp_path = self.temp.path.clone();
+        // Errors name the output the user asked for, not the temporary file.
+        let output = self.output.clone();
         let io = |what: &str| {
             let what = what.to_string();
-            let p = temp_path.clone();
+            let p = output.clone();
             move |e| StoreError::io(&p, what, e)
         };
         file.set_len(plan.file_len)
@@ -487,7 +488,7 @@ impl StoreBuilder {
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
         let mut emitter = Emitter::new(
             &file,
-            &temp_path,
+            &output,
             &plan,
             &self.rl,
             k,
