@@ -1,0 +1,705 @@
+//! The out-of-core store builder: quantize, key, sort under a RAM budget, write atomically.
+
+use crate::emit::{Emitter, RecordLayout, Source};
+use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
+use crate::runs::{self, Run, RunFile, Spiller};
+use crate::{meta, pio, pointlet_size, StoreError};
+use pointlet_core::codes::KeyGrid;
+use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization, SourceMeta, Vlr};
+use rayon::prelude::*;
+use std::fs::{File, OpenOptions};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::sync_channel;
+use std::sync::Arc;
+
+/// How to build a store.
+#[derive(Clone)]
+pub struct BuildConfig {
+    /// Bytes the builder may hold for sorting; larger inputs sort out of core.
+    pub ram_budget: u64,
+    /// Folder for temporary run files (default: beside the output).
+    pub tmp_dir: Option<PathBuf>,
+    /// M of paper eq. 1: the pointlet size is chosen to give about this many pointlets.
+    pub target_pointlets: u64,
+    /// Seed of the per-pointlet shuffles.
+    pub seed: u64,
+    /// Called now and then with how far the build is.
+    pub progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
+}
+
+impl Default for BuildConfig {
+    fn default() -> Self {
+        BuildConfig {
+            ram_budget: 1 << 30,
+            tmp_dir: None,
+            target_pointlets: 100_000,
+            seed: 0,
+            progress: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for BuildConfig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BuildConfig")
+            .field("ram_budget", &self.ram_budget)
+            .field("tmp_dir", &self.tmp_dir)
+            .field("target_pointlets", &self.target_pointlets)
+            .field("seed", &self.seed)
+            .field("progress", &self.progress.as_ref().map(|_| "callback"))
+            .finish()
+    }
+}
+
+/// What the builder is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuildPhase {
+    /// Taking points (`done` = points pushed, `total` = points the source claims).
+    Reading,
+    /// Sorting and spilling a run that outgrew the budget (`done` = points spilled).
+    Sorting,
+    /// Merging runs into fewer, longer runs (only with very many runs).
+    Merging,
+    /// Writing the store (`done` = points written).
+    Writing,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildProgress {
+    pub phase: BuildPhase,
+    pub done: u64,
+    pub total: u64,
+}
+
+/// What [`StoreBuilder::finish`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildSummary {
+    pub points: u64,
+    pub pointlets: u64,
+    pub pointlet_size: u64,
+    /// Sorted runs spilled to disk (0 when everything fit the budget).
+    pub runs: usize,
+    /// Bytes of the store file.
+    pub bytes: u64,
+    pub bounds: Aabb,
+}
+
+/// A keying task's result: raw bounds of its points, or the first bad point and why.
+type KeyChunk = Result<([i32; 3], [i32; 3]), (usize, String)>;
+
+/// Points per parallel task when quantizing and keying a batch.
+const KEY_TASK: usize = 1 << 14;
+/// Smallest run, whatever the budget (a tiny budget must still make progress).
+const MIN_RUN_POINTS: usize = 1 << 12;
+
+/// The temporary output; removed when dropped unless it was renamed into place.
+struct TempOutput {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl Drop for TempOutput {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Builds a store from batches of points. Dropping it without [`finish`](Self::finish), or
+/// any error, removes the temporary output and every temporary run file.
+pub struct StoreBuilder {
+    // Declared before `temp` so the file is closed before the temporary is removed.
+    file: Option<File>,
+    temp: TempOutput,
+    output: PathBuf,
+    run_dir: PathBuf,
+    stem: String,
+    ram_budget: u64,
+    target_pointlets: u64,
+    seed: u64,
+    progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
+    quantization: Quantization,
+    grid: KeyGrid,
+    key_bounds: Aabb,
+    layout: PointLayout,
+    las_point_format: u8,
+    vlrs: Vec<Vlr>,
+    sources: Vec<String>,
+    claimed: u64,
+    rl: RecordLayout,
+    run: Run,
+    run_capacity: usize,
+    /// Whether two runs fit the budget, so one can fill while the other spills.
+    overlap: bool,
+    io_chunk: usize,
+    spiller: Option<Spiller>,
+    runs: Vec<RunFile>,
+    pushed: u64,
+    raw_min: [i32; 3],
+    raw_max: [i32; 3],
+    failed: bool,
+}
+
+/// Sizes derived from the budget: the I/O chunk, the points a run may hold, and whether runs
+/// spill in the background (two half-budget runs) or not (one run of the whole budget, when
+/// the source claims few enough points to fit it).
+fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool) {
+    let io_chunk = (budget / 32).clamp(256 << 10, 16 << 20) as usize;
+    // A run holds its records and (key, index) pairs; sorting is in place; two I/O chunks
+    // (spill gather, write-out) come on top.
+    let per_point = (record + std::mem::size_of::<(u64, u32)>()) as u64;
+    let room = budget.saturating_sub(2 * io_chunk as u64);
+    let whole = room / per_point;
+    let clamp = |v: u64| v.clamp(MIN_RUN_POINTS as u64, u32::MAX as u64) as usize;
+    if claimed <= whole {
+        (io_chunk, clamp(whole), false)
+    } else {
+        (io_chunk, clamp(whole / 2), true)
+    }
+}
+
+impl StoreBuilder {
+    /// Starts a store at `output` for points described by `meta` (normally from
+    /// [`merge_meta`](crate::merge_meta)); `sources` are recorded in the header.
+    pub fn create(
+        output: &Path,
+        config: BuildConfig,
+        meta: &SourceMeta,
+        sources: Vec<String>,
+    ) -> Result<Self, StoreError> {
+        let b = &meta.bounds;
+        let finite = b.min.iter().chain(b.max.iter()).all(|v| v.is_finite());
+        if !finite || b.is_empty() {
+            return Err(StoreError::build(
+                output,
+                format!(
+                    "the source bounds {:?} to {:?} are empty or not finite",
+                    b.min, b.max
+                ),
+            ));
+        }
+        let quantization = match meta.quantization {
+            Some(q) => {
+                q.validate()
+                    .map_err(|e| StoreError::build(output, format!("quantization: {e}")))?;
+                q
+            }
+            None => meta::choose_quantization(&[meta], b)
+                .map_err(|e| StoreError::build(output, e.to_string()))?,
+        };
+        let layout = meta.layout;
+        let las_point_format = meta
+            .las_point_format
+            .unwrap_or_else(|| layout.las_point_format());
+        if las_point_format > 10 {
+            return Err(StoreError::build(
+                output,
+                format!("LAS point format {las_point_format} does not exist"),
+            ));
+        }
+        if let Some(d) = &config.tmp_dir {
+            if !d.is_dir() {
+                return Err(StoreError::build(
+                    output,
+                    format!("the temporary folder {} is not a folder", d.display()),
+                ));
+            }
+        }
+        let stem = output
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .ok_or_else(|| StoreError::build(output, "the output path has no file name"))?;
+        let out_dir = match output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let temp_path = runs::temp_name(&out_dir, &stem, "tmp");
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create_new(true)
+            .open(&temp_path)
+            .map_err(|e| {
+                StoreError::io(
+                    output,
+                    format!("creating the temporary output {}", temp_path.display()),
+                    e,
+                )
+            })?;
+        let temp = TempOutput {
+            path: temp_path,
+            keep: false,
+        };
+        let rl = RecordLayout::new(&layout);
+        let (io_chunk, run_capacity, overlap) =
+            budget_sizes(config.ram_budget, rl.len, meta.point_count);
+        Ok(StoreBuilder {
+            file: Some(file),
+            temp,
+            output: output.to_path_buf(),
+            run_dir: config.tmp_dir.unwrap_or(out_dir),
+            stem,
+            ram_budget: config.ram_budget,
+            target_pointlets: config.target_pointlets.max(1),
+            seed: config.seed,
+            progress: config.progress,
+            quantization,
+            grid: KeyGrid::new(b),
+            key_bounds: *b,
+            layout,
+            las_point_format,
+            vlrs: meta.vlrs.clone(),
+            sources,
+            claimed: meta.point_count,
+            rl,
+            run: Run::default(),
+            run_capacity,
+            overlap,
+            io_chunk,
+            spiller: None,
+            runs: Vec::new(),
+            pushed: 0,
+            raw_min: [i32::MAX; 3],
+            raw_max: [i32::MIN; 3],
+            failed: false,
+        })
+    }
+
+    fn report(&self, phase: BuildPhase, done: u64, total: u64) {
+        if let Some(p) = &self.progress {
+            p(BuildProgress { phase, done, total });
+        }
+    }
+
+    fn usable(&self) -> Result<(), StoreError> {
+        if self.failed {
+            return Err(StoreError::build(
+                &self.output,
+                "the build already failed; start a new one",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Adds points. The batch's layout must be a subset of the store's: missing columns are
+    /// stored as zeros.
+    pub fn push(&mut self, batch: &PointBatch) -> Result<(), StoreError> {
+        self.usable()?;
+        let r = self.push_inner(batch);
+        if r.is_err() {
+            self.failed = true;
+        }
+        r
+    }
+
+    fn push_inner(&mut self, batch: &PointBatch) -> Result<(), StoreError> {
+        batch
+            .check_shape()
+            .map_err(|e| StoreError::build(&self.output, format!("bad point batch: {e}")))?;
+        let (have, want) = (batch.layout, self.layout);
+        if have.union(want) != want {
+            return Err(StoreError::build(
+                &self.output,
+                format!("a batch has attributes the store was not created with: {have:?} is not within {want:?}"),
+            ));
+        }
+        let mut start = 0;
+        while start < batch.len() {
+            if self.run.pairs.len() >= self.run_capacity {
+                self.spill()?;
+            }
+            let take = (batch.len() - start).min(self.run_capacity - self.run.pairs.len());
+            self.append(batch, start, take)?;
+            start += take;
+        }
+        self.report(
+            BuildPhase::Reading,
+            self.pushed,
+            self.claimed.max(self.pushed),
+        );
+        Ok(())
+    }
+
+    /// Grows a run column to hold `need` items: at once to `expected` (what the source still
+    /// claims), then by doubling, never past `cap` (the run's capacity).
+    fn grow<T>(v: &mut Vec<T>, need: usize, expected: usize, cap: usize) {
+        if v.capacity() < need {
+            let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
+            v.reserve_exact(target - v.len());
+        }
+    }
+
+    /// Quantizes, keys and packs points `[start, start + n)` of `batch` into the run.
+    fn append(&mut self, batch: &PointBatch, start: usize, n: usize) -> Result<(), StoreError> {
+        let rb = self.rl.len;
+        let n0 = self.run.pairs.len();
+        let expected = n0.saturating_add(self.claimed.saturating_sub(self.pushed) as usize);
+        let cap = self.run_capacity;
+        Self::grow(&mut self.run.pairs, n0 + n, expected, cap);
+        Self::grow(
+            &mut self.run.records,
+            (n0 + n) * rb,
+            expected.saturating_mul(rb),
+            cap * rb,
+        );
+        self.run.pairs.resize(n0 + n, (0, 0));
+        self.run.records.resize((n0 + n) * rb, 0);
+        let (q, grid, rl) = (self.quantization, self.grid, &self.rl);
+        let results: Vec<KeyChunk> = self.run.records[n0 * rb..]
+            .par_chunks_mut(KEY_TASK * rb)
+            .zip(self.run.pairs[n0..].par_chunks_mut(KEY_TASK))
+            .enumerate()
+            .map(|(t, (recs, pairs))| {
+                let mut lo = [i32::MAX; 3];
+                let mut hi = [i32::MIN; 3];
+                for (j, (rec, pair)) in recs.chunks_exact_mut(rb).zip(pairs.iter_mut()).enumerate()
+                {
+                    let i = start + t * KEY_TASK + j;
+                    let p = batch.xyz[i];
+                    let raw = q
+                        .quantize(p)
+                        .map_err(|e| (i, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(raw[a]);
+                        hi[a] = hi[a].max(raw[a]);
+                    }
+                    let key = grid.hilbert(q.dequantize(raw));
+                    *pair = (key, (n0 + t * KEY_TASK + j) as u32);
+                    rl.pack(batch, i, raw, rec);
+                }
+                Ok((lo, hi))
+            })
+            .collect();
+        for r in results {
+            match r {
+                Ok((lo, hi)) => {
+                    for a in 0..3 {
+                        self.raw_min[a] = self.raw_min[a].min(lo[a]);
+                        self.raw_max[a] = self.raw_max[a].max(hi[a]);
+                    }
+                }
+                Err((i, message)) => {
+                    let seq = self.pushed + (i - start) as u64;
+                    return Err(StoreError::build(
+                        &self.output,
+                        format!("input point {seq} {message}"),
+                    ));
+                }
+            }
+        }
+        self.pushed += n as u64;
+        Ok(())
+    }
+
+    /// Hands the in-memory run to the spiller, which sorts it and writes it to a run file.
+    fn spill(&mut self) -> Result<(), StoreError> {
+        if self.run.pairs.is_empty() {
+            return Ok(());
+        }
+        let (rb, chunk) = (self.rl.len, self.io_chunk);
+        let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
+        // At most one run is in flight: the one before this must be on disk now.
+        let reuse = match spiller.wait(&self.output)? {
+            Some((file, emptied)) => {
+                self.runs.push(file);
+                emptied
+            }
+            None => Run::default(),
+        };
+        let full = std::mem::replace(&mut self.run, reuse);
+        spiller.start(runs::temp_name(&self.run_dir, &self.stem, "run"), full)?;
+        if !self.overlap {
+            self.drain_spills()?;
+        }
+        Ok(())
+    }
+
+    /// Waits until every started run is on disk.
+    fn drain_spills(&mut self) -> Result<(), StoreError> {
+        if let Some(spiller) = self.spiller.as_mut() {
+            while let Some((file, emptied)) = spiller.wait(&self.output)? {
+                self.runs.push(file);
+                if self.run.pairs.capacity() == 0 {
+                    self.run = emptied;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Sorts what is left, writes the store and moves it into place.
+    pub fn finish(mut self) -> Result<BuildSummary, StoreError> {
+        self.usable()?;
+        let n = self.pushed;
+        if n == 0 {
+            return Err(StoreError::build(
+                &self.output,
+                "no points: the inputs gave no points",
+            ));
+        }
+        // Everything is on disk once a run was spilled; the merge then needs the budget.
+        self.report(BuildPhase::Sorting, 0, n);
+        let spilled = self.spiller.is_some();
+        if spilled {
+            self.spill()?;
+            self.drain_spills()?;
+            self.spiller = None;
+            self.run = Run::default();
+            self.report(BuildPhase::Sorting, n, n);
+        }
+        let runs_spilled = self.runs.len();
+        let k = pointlet_size(n, self.target_pointlets);
+        let pointlets = n.div_ceil(k);
+        let bounds = Aabb {
+            min: self.quantization.dequantize(self.raw_min),
+            max: self.quantization.dequantize(self.raw_max),
+        };
+        let mut header = StoreHeader {
+            version: VERSION,
+            points: n,
+            pointlets,
+            pointlet_size: k,
+            target_pointlets: self.target_pointlets,
+            seed: self.seed,
+            bounds,
+            key_bounds: self.key_bounds,
+            quantization: self.quantization,
+            layout: self.layout,
+            las_point_format: self.las_point_format,
+            vlrs: std::mem::take(&mut self.vlrs),
+            sources: std::mem::take(&mut self.sources),
+            streams: Vec::new(),
+        };
+        let (plan, header_bytes) = self.lay_out(&mut header)?;
+        let file = self
+            .file
+            .take()
+            .ok_or_else(|| StoreError::build(&self.output, "the output is already closed"))?;
+        // Errors name the output the user asked for, not the temporary file.
+        let output = self.output.clone();
+        let io = |what: &str| {
+            let what = what.to_string();
+            let p = output.clone();
+            move |e| StoreError::io(&p, what, e)
+        };
+        file.set_len(plan.file_len)
+            .map_err(io("sizing the output"))?;
+        pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
+        let mut emitter = Emitter::new(
+            &file,
+            &output,
+            &plan,
+            &self.rl,
+            k,
+            n,
+            self.seed,
+            self.quantization,
+        );
+        let block_pointlets = (self.io_chunk as u64 / (k * self.rl.len as u64)).max(1);
+        if spilled {
+            let runs = std::mem::take(&mut self.runs);
+            let rb = self.rl.len;
+            let merge_budget = (self.ram_budget / 2) as usize;
+            let progress = self.progress.clone();
+            let runs =
+                runs::reduce_runs(runs, rb, merge_budget, &self.run_dir, &self.stem, |d, t| {
+                    if let Some(p) = &progress {
+                        p(BuildProgress {
+                            phase: BuildPhase::Merging,
+                            done: d,
+                            total: t,
+                        });
+                    }
+                })?;
+            merge_into(
+                &mut emitter,
+                runs,
+                merge_budget,
+                block_pointlets,
+                &self.progress,
+            )?;
+        } else {
+            runs::sort_pairs(&mut self.run.pairs);
+            self.report(BuildPhase::Sorting, n, n);
+            let source = Source::Run {
+                records: &self.run.records,
+                order: &self.run.pairs,
+            };
+            let mut p0 = 0;
+            while p0 < pointlets {
+                let p1 = (p0 + block_pointlets).min(pointlets);
+                emitter.block(p0, p1, &source)?;
+                p0 = p1;
+                self.report(BuildPhase::Writing, (p1 * k).min(n), n);
+            }
+        }
+        let (table_crc, checksums_crc) = emitter.finish()?;
+        let preamble = Preamble {
+            version: VERSION,
+            file_len: plan.file_len,
+            header: plan.header,
+            table: plan.table,
+            checksums: plan.checksums,
+            data_offset: plan.data_offset,
+            header_crc: crc32fast::hash(&header_bytes),
+            table_crc,
+            checksums_crc,
+        };
+        pio::write_all_at(&file, &preamble.encode(), 0).map_err(io("writing the preamble"))?;
+        file.sync_all().map_err(io("flushing the output to disk"))?;
+        drop(file);
+        std::fs::rename(&self.temp.path, &self.output).map_err(|e| {
+            StoreError::io(
+                &self.output,
+                format!("moving {} into place", self.temp.path.display()),
+                e,
+            )
+        })?;
+        self.temp.keep = true;
+        sync_dir(&self.output);
+        Ok(BuildSummary {
+            points: n,
+            pointlets,
+            pointlet_size: k,
+            runs: runs_spilled,
+            bytes: plan.file_len,
+            bounds,
+        })
+    }
+
+    /// Fixes the header's stream offsets, which depend on the header's own length.
+    fn lay_out(&self, header: &mut StoreHeader) -> Result<(Plan, Vec<u8>), StoreError> {
+        let mut header_len = 0u64;
+        // Longer headers push the streams further, which can only lengthen the header, so
+        // this converges; a few rounds are always enough.
+        for _ in 0..16 {
+            let plan = format::plan(header_len, header.points, header.pointlets, &header.layout)
+                .ok_or_else(|| {
+                    StoreError::build(&self.output, "the store would exceed 2^64 bytes")
+                })?;
+            header.streams = plan.streams.clone();
+            let bytes =
+                format::encode_header(header).map_err(|e| StoreError::build(&self.output, e))?;
+            if bytes.len() as u64 == header_len {
+                if header_len > format::MAX_HEADER_LEN {
+                    return Err(StoreError::build(
+                        &self.output,
+                        format!(
+                            "the header would take {header_len} bytes (too many VLRs or sources)"
+                        ),
+                    ));
+                }
+                return Ok((plan, bytes));
+            }
+            header_len = bytes.len() as u64;
+        }
+        Err(StoreError::build(
+            &self.output,
+            "internal error: the header layout does not settle",
+        ))
+    }
+}
+
+/// Streams the merged runs into the output: a merging thread fills blocks of whole pointlets
+/// while this thread splits, checksums and writes the previous block.
+fn merge_into(
+    emitter: &mut Emitter<'_>,
+    runs: Vec<RunFile>,
+    merge_budget: usize,
+    block_pointlets: u64,
+    progress: &Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
+) -> Result<(), StoreError> {
+    let rb = emitter.record_len();
+    let k = emitter.k();
+    let n = emitter.points();
+    let pointlets = emitter.pointlet_count();
+    let block_bytes = (block_pointlets * k) as usize * rb;
+    let path = emitter.path().to_path_buf();
+    let cursor_bytes = (merge_budget / runs.len().max(1)).max(16 << 10);
+    let (full_tx, full_rx) = sync_channel::<(u64, Vec<u8>)>(1);
+    let (free_tx, free_rx) = sync_channel::<Vec<u8>>(3);
+    for _ in 0..3 {
+        // Buffers start empty and grow once; capacity 3 makes these sends never block.
+        let _ = free_tx.send(Vec::new());
+    }
+    std::thread::scope(|scope| {
+        let producer = scope.spawn(move || -> Result<u64, StoreError> {
+            let stopped = || StoreError::build(&path, "the writer stopped");
+            let mut buf = free_rx.recv().map_err(|_| stopped())?;
+            buf.reserve_exact(block_bytes);
+            let mut p0 = 0u64;
+            let merged = runs::merge(&runs, rb, cursor_bytes, |entry| {
+                buf.extend_from_slice(&entry[8..]);
+                if buf.len() == block_bytes {
+                    let mut next = free_rx.recv().map_err(|_| stopped())?;
+                    next.clear();
+                    next.reserve_exact(block_bytes);
+                    let full = std::mem::replace(&mut buf, next);
+                    full_tx.send((p0, full)).map_err(|_| stopped())?;
+                    p0 += block_pointlets;
+                }
+                Ok(())
+            })?;
+            if !buf.is_empty() {
+                full_tx.send((p0, buf)).map_err(|_| stopped())?;
+            }
+            Ok(merged)
+        });
+        let mut written = Ok(());
+        for (p0, buf) in full_rx.iter() {
+            let p1 = (p0 + block_pointlets).min(pointlets);
+            let source = Source::Sorted {
+                records: &buf,
+                first: p0 * k,
+            };
+            if let Err(e) = emitter.block(p0, p1, &source) {
+                written = Err(e);
+                break;
+            }
+            if let Some(p) = progress {
+                p(BuildProgress {
+                    phase: BuildPhase::Writing,
+                    done: (p1 * k).min(n),
+                    total: n,
+                });
+            }
+            let _ = free_tx.send(buf);
+        }
+        // Closing our ends lets a blocked producer see that we stopped.
+        drop(full_rx);
+        drop(free_tx);
+        let merged = producer
+            .join()
+            .map_err(|_| StoreError::build(emitter.path(), "the merging thread panicked"))?;
+        written?;
+        let merged = merged?;
+        if merged != n || emitter.next_pointlet() != pointlets {
+            return Err(StoreError::build(
+                emitter.path(),
+                format!(
+                    "internal error: merged {merged} of {n} points into {} of {pointlets} pointlets",
+                    emitter.next_pointlet()
+                ),
+            ));
+        }
+        Ok(())
+    })
+}
+
+/// Makes the rename durable where the platform allows; failure here loses nothing already
+/// written, so it is not an error.
+fn sync_dir(output: &Path) {
+    #[cfg(unix)]
+    {
+        let dir = match output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = output;
+}

@@ -1,0 +1,484 @@
+//! The validating reader: positioned reads only, so one `Store` serves many threads.
+
+use crate::emit::position_bounds;
+use crate::format::{
+    self, array, PointletEntry, Preamble, StoreHeader, StreamKind, PREAMBLE_LEN, TABLE_ENTRY_LEN,
+};
+use crate::{pio, StoreError};
+use pointlet_core::{PointBatch, WAVEFORM_BYTES};
+use rayon::prelude::*;
+use std::fs::File;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Bytes read at once by [`Store::verify`].
+const VERIFY_CHUNK: u64 = 8 << 20;
+
+/// An open store.
+#[derive(Debug)]
+pub struct Store {
+    path: PathBuf,
+    file: File,
+    header: StoreHeader,
+    pointlets: Vec<PointletEntry>,
+    /// CRC32 of pointlet i's bytes of stream s at `i * streams + s`.
+    checksums: Vec<u32>,
+    /// Byte ranges that hold only padding (zeros).
+    padding: Vec<Range<u64>>,
+}
+
+impl Store {
+    /// Opens a store and checks its structure: magic, version, length, section layout, the
+    /// header, table and checksum-table CRCs, the header's schema and the pointlet table.
+    /// Point data is checked by [`read_pointlet`](Self::read_pointlet) and [`verify`](Self::verify).
+    pub fn open(path: &Path) -> Result<Store, StoreError> {
+        let file = File::open(path).map_err(|e| StoreError::io(path, "opening the store", e))?;
+        let len = file
+            .metadata()
+            .map_err(|e| StoreError::io(path, "reading the file size", e))?
+            .len();
+        let bad = |m: String| StoreError::damaged(path, m);
+        if len < PREAMBLE_LEN {
+            return Err(bad(format!(
+                "the file has {len} bytes, fewer than the {PREAMBLE_LEN}-byte preamble (truncated?)"
+            )));
+        }
+        let mut pre = [0u8; PREAMBLE_LEN as usize];
+        read_at(&file, path, &mut pre, 0, "reading the preamble")?;
+        let pre = Preamble::decode(&pre).map_err(bad)?;
+        if pre.file_len != len {
+            return Err(bad(format!(
+                "the preamble says the file has {} bytes but it has {len} (truncated or appended to)",
+                pre.file_len
+            )));
+        }
+        let h = pre.header;
+        if h.offset != PREAMBLE_LEN
+            || h.len == 0
+            || h.len > format::MAX_HEADER_LEN
+            || h.len > len - PREAMBLE_LEN
+        {
+            return Err(bad(format!(
+                "the header section ({} bytes at {}) is out of bounds",
+                h.len, h.offset
+            )));
+        }
+        let mut header_bytes = vec![0u8; h.len as usize];
+        read_at(
+            &file,
+            path,
+            &mut header_bytes,
+            h.offset,
+            "reading the header",
+        )?;
+        if crc32fast::hash(&header_bytes) != pre.header_crc {
+            return Err(bad("header checksum mismatch".into()));
+        }
+        let header = format::decode_header(&header_bytes).map_err(bad)?;
+        drop(header_bytes);
+        let plan = format::plan(h.len, header.points, header.pointlets, &header.layout)
+            .ok_or_else(|| bad("the header's sizes overflow 64 bits".into()))?;
+        if plan.file_len != len {
+            return Err(bad(format!(
+                "{} points need a file of {} bytes, the file has {len}",
+                header.points, plan.file_len
+            )));
+        }
+        let sections = [
+            ("pointlet table", pre.table, plan.table),
+            ("checksum table", pre.checksums, plan.checksums),
+        ];
+        for (name, got, want) in sections {
+            if got != want {
+                return Err(bad(format!(
+                    "the {name} is at {} ({} bytes) where the layout puts it at {} ({} bytes)",
+                    got.offset, got.len, want.offset, want.len
+                )));
+            }
+        }
+        if pre.data_offset != plan.data_offset {
+            return Err(bad(format!(
+                "the streams start at {} where the layout puts them at {}",
+                pre.data_offset, plan.data_offset
+            )));
+        }
+        for (got, want) in header.streams.iter().zip(&plan.streams) {
+            if got != want {
+                return Err(bad(format!(
+                    "the {} stream is at {} ({} bytes) where the layout puts it at {} ({} bytes)",
+                    got.kind.name(),
+                    got.offset,
+                    got.length,
+                    want.offset,
+                    want.length
+                )));
+            }
+        }
+        // The plan lies within the (real) file length, so these allocations are bounded by it.
+        let mut table = vec![0u8; plan.table.len as usize];
+        read_at(
+            &file,
+            path,
+            &mut table,
+            plan.table.offset,
+            "reading the pointlet table",
+        )?;
+        if crc32fast::hash(&table) != pre.table_crc {
+            return Err(bad("pointlet table checksum mismatch".into()));
+        }
+        let pointlets = decode_table(&table, &header).map_err(bad)?;
+        drop(table);
+        let mut checks = vec![0u8; plan.checksums.len as usize];
+        read_at(
+            &file,
+            path,
+            &mut checks,
+            plan.checksums.offset,
+            "reading the checksum table",
+        )?;
+        if crc32fast::hash(&checks) != pre.checksums_crc {
+            return Err(bad("checksum table checksum mismatch".into()));
+        }
+        let checksums = checks
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(array(c)))
+            .collect();
+        let mut padding = vec![
+            plan.header.end()..plan.table.offset,
+            plan.checksums.end()..plan.data_offset,
+        ];
+        for w in plan.streams.windows(2) {
+            padding.push(w[0].offset + w[0].length..w[1].offset);
+        }
+        padding.retain(|r| !r.is_empty());
+        Ok(Store {
+            path: path.to_path_buf(),
+            file,
+            header,
+            pointlets,
+            checksums,
+            padding,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn header(&self) -> &StoreHeader {
+        &self.header
+    }
+
+    pub fn pointlets(&self) -> &[PointletEntry] {
+        &self.pointlets
+    }
+
+    fn entry(&self, i: usize) -> Result<&PointletEntry, StoreError> {
+        self.pointlets.get(i).ok_or_else(|| {
+            StoreError::request(
+                &self.path,
+                format!(
+                    "pointlet {i} does not exist (the store has {})",
+                    self.pointlets.len()
+                ),
+            )
+        })
+    }
+
+    /// Appends the raw bytes of points `range` of pointlet `i`'s `kind` stream to `out`
+    /// (one positioned read). Bounds are checked; checksums are not (a range is not the unit
+    /// they cover): use [`read_pointlet`](Self::read_pointlet) or [`verify`](Self::verify).
+    pub fn read_stream_raw(
+        &self,
+        kind: StreamKind,
+        i: usize,
+        range: Range<u32>,
+        out: &mut Vec<u8>,
+    ) -> Result<(), StoreError> {
+        let e = self.entry(i)?;
+        if range.start > range.end || range.end > e.count {
+            return Err(StoreError::request(
+                &self.path,
+                format!(
+                    "points {range:?} are outside pointlet {i} of {} points",
+                    e.count
+                ),
+            ));
+        }
+        let s = self.header.stream(kind).ok_or_else(|| {
+            StoreError::request(
+                &self.path,
+                format!("the store has no {} stream", kind.name()),
+            )
+        })?;
+        let bpp = s.bytes_per_point as u64;
+        let offset = s.offset + (e.first + range.start as u64) * bpp;
+        let bytes = (range.end - range.start) as usize * bpp as usize;
+        let old = out.len();
+        out.resize(old + bytes, 0);
+        let r = read_at(
+            &self.file,
+            &self.path,
+            &mut out[old..],
+            offset,
+            "reading a stream",
+        );
+        if r.is_err() {
+            out.truncate(old);
+        }
+        r
+    }
+
+    fn read_typed<T, const B: usize>(
+        &self,
+        kind: StreamKind,
+        i: usize,
+        range: Range<u32>,
+        decode: impl Fn([u8; B]) -> T,
+    ) -> Result<Vec<T>, StoreError> {
+        let mut raw = Vec::new();
+        self.read_stream_raw(kind, i, range, &mut raw)?;
+        Ok(raw.chunks_exact(B).map(|c| decode(array(c))).collect())
+    }
+
+    /// Quantized positions of points `range` of pointlet `i` (bounds-checked, not checksummed).
+    pub fn read_positions(&self, i: usize, range: Range<u32>) -> Result<Vec<[i32; 3]>, StoreError> {
+        self.read_typed(StreamKind::Position, i, range, decode_position)
+    }
+
+    /// Colours of points `range` of pointlet `i`; an error when the store has no colours.
+    pub fn read_rgb(&self, i: usize, range: Range<u32>) -> Result<Vec<[u16; 3]>, StoreError> {
+        self.read_typed(StreamKind::Rgb, i, range, decode_rgb)
+    }
+
+    pub fn read_intensity(&self, i: usize, range: Range<u32>) -> Result<Vec<u16>, StoreError> {
+        self.read_typed(StreamKind::Intensity, i, range, u16::from_le_bytes)
+    }
+
+    pub fn read_classification(&self, i: usize, range: Range<u32>) -> Result<Vec<u8>, StoreError> {
+        self.read_typed(StreamKind::Classification, i, range, |b: [u8; 1]| b[0])
+    }
+
+    /// Every attribute of pointlet `i` in stored (shuffled) order, positions dequantized.
+    /// Each stream's bytes are checked against their CRC32.
+    pub fn read_pointlet(&self, i: usize) -> Result<PointBatch, StoreError> {
+        let e = *self.entry(i)?;
+        let n = e.count as usize;
+        let layout = self.header.layout;
+        let mut b = PointBatch::with_capacity(layout, n);
+        let mut raw = Vec::new();
+        let streams = self.header.streams.len();
+        for (s, info) in self.header.streams.iter().enumerate() {
+            raw.clear();
+            self.read_stream_raw(info.kind, i, 0..e.count, &mut raw)?;
+            let stored = self.checksums[i * streams + s];
+            let actual = crc32fast::hash(&raw);
+            if stored != actual {
+                return Err(StoreError::damaged(
+                    &self.path,
+                    format!(
+                        "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
+                        info.kind.name()
+                    ),
+                ));
+            }
+            let q = self.header.quantization;
+            match info.kind {
+                StreamKind::Position => {
+                    b.xyz = raw
+                        .chunks_exact(12)
+                        .map(|c| q.dequantize(decode_position(array(c))))
+                        .collect()
+                }
+                StreamKind::Intensity => b.intensity = decode_all(&raw, u16::from_le_bytes),
+                StreamKind::Returns => b.returns = raw.clone(),
+                StreamKind::Flags => b.flags = raw.clone(),
+                StreamKind::Classification => b.classification = raw.clone(),
+                StreamKind::ScanAngle => b.scan_angle = decode_all(&raw, f32::from_le_bytes),
+                StreamKind::UserData => b.user_data = raw.clone(),
+                StreamKind::PointSourceId => {
+                    b.point_source_id = decode_all(&raw, u16::from_le_bytes)
+                }
+                StreamKind::GpsTime => b.gps_time = decode_all(&raw, f64::from_le_bytes),
+                StreamKind::Rgb => b.rgb = decode_all(&raw, decode_rgb),
+                StreamKind::Nir => b.nir = decode_all(&raw, u16::from_le_bytes),
+                StreamKind::Waveform => {
+                    b.waveform = decode_all::<[u8; WAVEFORM_BYTES], WAVEFORM_BYTES>(&raw, |w| w)
+                }
+                StreamKind::ExtraBytes => b.extra_bytes = raw.clone(),
+            }
+        }
+        Ok(b)
+    }
+
+    /// Reads the whole file: every stream checksum of every pointlet, every pointlet's AABB
+    /// against its positions, and that all padding is zero. With the checks of `open`, every
+    /// byte of the file is covered.
+    pub fn verify(&self) -> Result<(), StoreError> {
+        let streams = self.header.streams.len();
+        // Tasks of whole pointlets up to VERIFY_CHUNK bytes, per stream.
+        let mut tasks = Vec::new();
+        for (s, info) in self.header.streams.iter().enumerate() {
+            let per = (VERIFY_CHUNK / (self.header.pointlet_size * info.bytes_per_point as u64))
+                .max(1) as usize;
+            let mut p = 0;
+            while p < self.pointlets.len() {
+                let end = (p + per).min(self.pointlets.len());
+                tasks.push((s, p..end));
+                p = end;
+            }
+        }
+        let results: Vec<Result<(), StoreError>> = tasks
+            .into_par_iter()
+            .map(|(s, range)| self.verify_task(s, streams, range))
+            .collect();
+        results.into_iter().collect::<Result<(), StoreError>>()?;
+        for r in &self.padding {
+            let mut buf = vec![0u8; (r.end - r.start) as usize];
+            read_at(&self.file, &self.path, &mut buf, r.start, "reading padding")?;
+            if buf.iter().any(|b| *b != 0) {
+                return Err(StoreError::damaged(
+                    &self.path,
+                    format!("padding bytes {r:?} are not zero"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn verify_task(
+        &self,
+        s: usize,
+        streams: usize,
+        pointlets: Range<usize>,
+    ) -> Result<(), StoreError> {
+        let info = &self.header.streams[s];
+        let bpp = info.bytes_per_point as usize;
+        let first = &self.pointlets[pointlets.start];
+        let last = &self.pointlets[pointlets.end - 1];
+        let points = (last.first + last.count as u64 - first.first) as usize;
+        let mut buf = vec![0u8; points * bpp];
+        read_at(
+            &self.file,
+            &self.path,
+            &mut buf,
+            info.offset + first.first * bpp as u64,
+            "verifying a stream",
+        )?;
+        let mut at = 0;
+        for i in pointlets {
+            let e = &self.pointlets[i];
+            let bytes = &buf[at..at + e.count as usize * bpp];
+            at += bytes.len();
+            let actual = crc32fast::hash(bytes);
+            let stored = self.checksums[i * streams + s];
+            if actual != stored {
+                return Err(StoreError::damaged(
+                    &self.path,
+                    format!(
+                        "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
+                        info.kind.name()
+                    ),
+                ));
+            }
+            if info.kind == StreamKind::Position
+                && position_bounds(bytes, &self.header.quantization) != e.aabb
+            {
+                return Err(StoreError::damaged(
+                    &self.path,
+                    format!("pointlet {i}: the AABB in the table is not that of its points"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn read_at(
+    file: &File,
+    path: &Path,
+    buf: &mut [u8],
+    offset: u64,
+    what: &str,
+) -> Result<(), StoreError> {
+    pio::read_exact_at(file, buf, offset).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            StoreError::damaged(path, format!("{what}: the file ends early (truncated?)"))
+        } else {
+            StoreError::io(path, what, e)
+        }
+    })
+}
+
+fn decode_position(b: [u8; 12]) -> [i32; 3] {
+    [
+        i32::from_le_bytes(array(&b[0..4])),
+        i32::from_le_bytes(array(&b[4..8])),
+        i32::from_le_bytes(array(&b[8..12])),
+    ]
+}
+
+fn decode_rgb(b: [u8; 6]) -> [u16; 3] {
+    [
+        u16::from_le_bytes([b[0], b[1]]),
+        u16::from_le_bytes([b[2], b[3]]),
+        u16::from_le_bytes([b[4], b[5]]),
+    ]
+}
+
+fn decode_all<T, const B: usize>(raw: &[u8], f: impl Fn([u8; B]) -> T) -> Vec<T> {
+    raw.chunks_exact(B).map(|c| f(array(c))).collect()
+}
+
+/// Decodes and checks the pointlet table against the header.
+fn decode_table(table: &[u8], h: &StoreHeader) -> Result<Vec<PointletEntry>, String> {
+    let mut out = Vec::with_capacity(h.pointlets as usize);
+    let mut next = 0u64;
+    let mut union = pointlet_core::Aabb::EMPTY;
+    let last = h.pointlets - 1;
+    for (i, raw) in table.chunks_exact(TABLE_ENTRY_LEN as usize).enumerate() {
+        let e = PointletEntry::decode(&array(raw))
+            .ok_or_else(|| format!("pointlet {i}: reserved table bytes are not zero"))?;
+        if e.first != next {
+            return Err(format!(
+                "pointlet {i} starts at point {} instead of {next}: pointlets must be contiguous",
+                e.first
+            ));
+        }
+        let expected = if i as u64 == last {
+            h.points - next
+        } else {
+            h.pointlet_size
+        };
+        if e.count as u64 != expected {
+            return Err(format!(
+                "pointlet {i} holds {} points instead of {expected}",
+                e.count
+            ));
+        }
+        let b = &e.aabb;
+        let finite = b.min.iter().chain(b.max.iter()).all(|v| v.is_finite());
+        if !finite || b.is_empty() {
+            return Err(format!(
+                "pointlet {i} has a bad AABB {:?} to {:?}",
+                b.min, b.max
+            ));
+        }
+        union = union.union(b);
+        next += e.count as u64;
+        out.push(e);
+    }
+    if next != h.points {
+        return Err(format!(
+            "the pointlets hold {next} points, the header says {}",
+            h.points
+        ));
+    }
+    if union != h.bounds {
+        return Err(format!(
+            "the header bounds are not the union of the pointlet AABBs {:?} {:?}",
+            union, h.bounds
+        ));
+    }
+    Ok(out)
+}

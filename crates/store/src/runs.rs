@@ -1,0 +1,320 @@
+//! Sorted runs on disk and their k-way merge.
+//!
+//! A run file is a sequence of entries `[key: u64 LE][record]` in (key, input order) order.
+//! Runs cover consecutive stretches of the input, so ties between runs go to the lower run:
+//! the merged order is the same total order an in-memory sort gives.
+
+use crate::StoreError;
+use rayon::prelude::*;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::thread::JoinHandle;
+
+/// Run files merged at once; more runs are merged in passes (bounded memory and descriptors).
+pub(crate) const MAX_FANOUT: usize = 128;
+
+/// A name for a temporary file that no other builder (in this or another process) uses.
+pub(crate) fn temp_name(dir: &Path, stem: &str, what: &str) -> PathBuf {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    dir.join(format!(".{stem}.{}.{n}.{what}", std::process::id()))
+}
+
+/// A temporary run file; dropping it removes the file.
+pub(crate) struct RunFile {
+    pub path: PathBuf,
+    /// Entries in the file.
+    pub count: u64,
+}
+
+impl Drop for RunFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Creates a run file for writing; the returned guard removes it again when dropped.
+pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
+    let file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&path)
+        .map_err(|e| StoreError::io(&path, "creating a temporary run file", e))?;
+    Ok((RunFile { path, count: 0 }, file))
+}
+
+/// Writes the records of an in-memory run in sorted `order` as a run file. One chunk is
+/// written while the next is gathered.
+pub(crate) fn write_run(
+    path: PathBuf,
+    records: &[u8],
+    order: &[(u64, u32)],
+    rb: usize,
+    chunk_bytes: usize,
+) -> Result<RunFile, StoreError> {
+    let (mut run, mut file) = create_run(path)?;
+    let entry = 8 + rb;
+    let chunk_points = (chunk_bytes / entry).max(1);
+    let gather = |part: &[(u64, u32)], buf: &mut Vec<u8>| {
+        buf.clear();
+        buf.resize(part.len() * entry, 0);
+        buf.par_chunks_mut(4096 * entry)
+            .zip(part.par_chunks(4096))
+            .for_each(|(o, keys)| {
+                for (e, (key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
+                    let at = *idx as usize * rb;
+                    e[..8].copy_from_slice(&key.to_le_bytes());
+                    e[8..].copy_from_slice(&records[at..at + rb]);
+                }
+            });
+    };
+    let mut parts = order.chunks(chunk_points);
+    let mut ready = Vec::new();
+    let mut next = Vec::new();
+    if let Some(first) = parts.next() {
+        gather(first, &mut ready);
+    }
+    while !ready.is_empty() {
+        let part = parts.next();
+        let (written, ()) = rayon::join(
+            || file.write_all(&ready),
+            || match part {
+                Some(p) => gather(p, &mut next),
+                None => next.clear(),
+            },
+        );
+        written.map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
+        std::mem::swap(&mut ready, &mut next);
+    }
+    run.count = order.len() as u64;
+    Ok(run)
+}
+
+/// Sorts (key, index) pairs: by key, ties by input order.
+pub(crate) fn sort_pairs(pairs: &mut [(u64, u32)]) {
+    pairs.par_sort_unstable();
+}
+
+/// A run in memory: records in input order and their (key, index) pairs.
+#[derive(Default)]
+pub(crate) struct Run {
+    pub records: Vec<u8>,
+    pub pairs: Vec<(u64, u32)>,
+}
+
+type SpillResult = Result<(RunFile, Run), StoreError>;
+
+/// Sorts and writes full runs on a thread of its own while the next run fills; hands the
+/// emptied buffers back for reuse. Runs are spilled in the order they are started.
+pub(crate) struct Spiller {
+    jobs: Option<SyncSender<(PathBuf, Run)>>,
+    done: Receiver<SpillResult>,
+    worker: Option<JoinHandle<()>>,
+    in_flight: usize,
+}
+
+impl Spiller {
+    pub fn new(rb: usize, chunk_bytes: usize) -> Spiller {
+        let (jobs, todo) = sync_channel::<(PathBuf, Run)>(1);
+        let (finished, done) = sync_channel::<SpillResult>(2);
+        let worker = std::thread::spawn(move || {
+            for (path, mut run) in todo {
+                sort_pairs(&mut run.pairs);
+                let result = write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
+                    run.records.clear();
+                    run.pairs.clear();
+                    (f, run)
+                });
+                // A dropped receiver means the build was abandoned; the run file goes with it.
+                if finished.send(result).is_err() {
+                    return;
+                }
+            }
+        });
+        Spiller {
+            jobs: Some(jobs),
+            done,
+            worker: Some(worker),
+            in_flight: 0,
+        }
+    }
+
+    fn stopped(path: &Path) -> StoreError {
+        StoreError::build(path, "the run spilling thread stopped")
+    }
+
+    /// Queues a full run to be written to `path`.
+    pub fn start(&mut self, path: PathBuf, run: Run) -> Result<(), StoreError> {
+        let jobs = self.jobs.as_ref().ok_or_else(|| Self::stopped(&path))?;
+        jobs.send((path.clone(), run))
+            .map_err(|_| Self::stopped(&path))?;
+        self.in_flight += 1;
+        Ok(())
+    }
+
+    /// Waits for the oldest run in flight; `None` when none is.
+    pub fn wait(&mut self, output: &Path) -> Result<Option<(RunFile, Run)>, StoreError> {
+        if self.in_flight == 0 {
+            return Ok(None);
+        }
+        self.in_flight -= 1;
+        let r = self.done.recv().map_err(|_| Self::stopped(output))?;
+        r.map(Some)
+    }
+}
+
+impl Drop for Spiller {
+    fn drop(&mut self) {
+        // Closing the queue ends the worker after its current run; joining it first means no
+        // run file can appear after the builder cleaned up.
+        self.jobs = None;
+        if let Some(w) = self.worker.take() {
+            let _ = w.join();
+        }
+    }
+}
+
+/// Reads a run file front to back through a buffer of whole entries.
+struct Cursor<'a> {
+    run: &'a RunFile,
+    file: File,
+    entry: usize,
+    buf: Vec<u8>,
+    pos: usize,
+    end: usize,
+    unread: u64,
+}
+
+impl<'a> Cursor<'a> {
+    fn open(run: &'a RunFile, entry: usize, buf_bytes: usize) -> Result<Cursor<'a>, StoreError> {
+        let file = File::open(&run.path)
+            .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+        let per_fill = (buf_bytes / entry).max(1) as u64;
+        let len = per_fill.min(run.count) as usize * entry;
+        Ok(Cursor {
+            run,
+            file,
+            entry,
+            buf: vec![0u8; len],
+            pos: 0,
+            end: 0,
+            unread: run.count,
+        })
+    }
+
+    /// Loads the next entries; false at the end of the run.
+    fn fill(&mut self) -> Result<bool, StoreError> {
+        if self.unread == 0 {
+            return Ok(false);
+        }
+        let n = ((self.buf.len() / self.entry) as u64).min(self.unread) as usize;
+        let bytes = n * self.entry;
+        self.file
+            .read_exact(&mut self.buf[..bytes])
+            .map_err(|e| StoreError::io(&self.run.path, "reading a temporary run file", e))?;
+        self.pos = 0;
+        self.end = bytes;
+        self.unread -= n as u64;
+        Ok(true)
+    }
+
+    fn current(&self) -> &[u8] {
+        &self.buf[self.pos..self.pos + self.entry]
+    }
+
+    fn key(&self) -> u64 {
+        u64::from_le_bytes(crate::format::array(&self.buf[self.pos..self.pos + 8]))
+    }
+
+    /// Moves to the next entry; false at the end of the run.
+    fn advance(&mut self) -> Result<bool, StoreError> {
+        self.pos += self.entry;
+        if self.pos < self.end {
+            return Ok(true);
+        }
+        self.fill()
+    }
+}
+
+/// Merges `runs` (in input order) and hands every entry `[key][record]` to `sink` in
+/// (key, input order) order. Returns the number of entries.
+pub(crate) fn merge(
+    runs: &[RunFile],
+    rb: usize,
+    buf_bytes: usize,
+    mut sink: impl FnMut(&[u8]) -> Result<(), StoreError>,
+) -> Result<u64, StoreError> {
+    let entry = 8 + rb;
+    let mut cursors = Vec::with_capacity(runs.len());
+    let mut heap = BinaryHeap::with_capacity(runs.len());
+    for (i, run) in runs.iter().enumerate() {
+        let mut c = Cursor::open(run, entry, buf_bytes)?;
+        if c.fill()? {
+            heap.push(Reverse((c.key(), i)));
+        }
+        cursors.push(c);
+    }
+    let mut count = 0u64;
+    while let Some(mut top) = heap.peek_mut() {
+        let Reverse((_, i)) = *top;
+        let c = &mut cursors[i];
+        sink(c.current())?;
+        count += 1;
+        if c.advance()? {
+            // Replacing the top in place costs one sift-down instead of a pop and a push.
+            *top = Reverse((c.key(), i));
+        } else {
+            std::collections::binary_heap::PeekMut::pop(top);
+        }
+    }
+    Ok(count)
+}
+
+/// Merges consecutive groups of runs until at most [`MAX_FANOUT`] remain.
+pub(crate) fn reduce_runs(
+    mut runs: Vec<RunFile>,
+    rb: usize,
+    buf_bytes: usize,
+    dir: &Path,
+    stem: &str,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<Vec<RunFile>, StoreError> {
+    while runs.len() > MAX_FANOUT {
+        let total: u64 = runs.iter().map(|r| r.count).sum();
+        let mut merged_points = 0u64;
+        let mut next = Vec::with_capacity(runs.len().div_ceil(MAX_FANOUT));
+        let mut rest = runs.into_iter();
+        loop {
+            let group: Vec<RunFile> = rest.by_ref().take(MAX_FANOUT).collect();
+            if group.is_empty() {
+                break;
+            }
+            if group.len() == 1 {
+                next.extend(group);
+                continue;
+            }
+            let (mut run, file) = create_run(temp_name(dir, stem, "run"))?;
+            let mut w = std::io::BufWriter::with_capacity(buf_bytes.max(1 << 16), file);
+            let per_group = buf_bytes / group.len();
+            let count = merge(&group, rb, per_group, |e| {
+                w.write_all(e)
+                    .map_err(|err| StoreError::io(&run.path, "writing a temporary run file", err))
+            })?;
+            w.flush()
+                .map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
+            run.count = count;
+            merged_points += count;
+            progress(merged_points, total);
+            // The group's files go away here; the merged run replaces them.
+            drop(group);
+            next.push(run);
+        }
+        runs = next;
+    }
+    Ok(runs)
+}
