@@ -41,7 +41,16 @@ pub struct RenderTarget {
 pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
+/// GPU bytes per pixel: keys 8, depth 4, colour 4, HQS sums 16, HQS1R word 8 + overflow 16,
+/// two colour/depth layers 16, hardware depth 4, output 4.
+const BYTES_PER_PIXEL: u64 = 80;
+
 impl RenderTarget {
+    /// GPU bytes a target of this size allocates.
+    pub fn bytes_for(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * BYTES_PER_PIXEL
+    }
+
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self, GpuError> {
         let max = ctx.device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {

@@ -138,8 +138,8 @@ pub(crate) fn choose_quantization(
         });
         let Some((scale, offset)) = found else {
             return Err(StoreError::meta(format!(
-                "the inputs span {} to {} on {}: too far apart for 32-bit integer coordinates \
-                 even at a scale of {limit}",
+                "the inputs span {:e} to {:e} on {}: too far apart for 32-bit integer \
+                 coordinates even at a scale of {limit}",
                 bounds.min[axis], bounds.max[axis], axis_name
             )));
         };

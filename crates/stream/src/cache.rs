@@ -179,7 +179,8 @@ impl<S: PointletSource> RamCache<S> {
             }
             let have = sh.loaded[i].load(Acquire);
             let from = sh.held_from[i].load(Acquire);
-            if w > have && !sh.load_queued[i].load(Acquire) {
+            let gap = keep < from && w > keep;
+            if (w > have || gap) && !sh.load_queued[i].load(Acquire) {
                 loads.push(i as u32);
             } else if (w < have || keep > from) && pressure && !sh.unload_queued[i].load(Acquire) {
                 surplus.push((sh.last_wanted[i].load(Relaxed), i as u32));
@@ -345,8 +346,10 @@ fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
     let mut have = sh.loaded[i].load(Acquire);
     let want = sh.wanted[i].load(Relaxed);
     let keep = sh.keep_from[i].load(Relaxed);
-    if want > have && keep >= have {
-        // Nothing held is still needed: restart the window at `keep` instead of reading the gap.
+    let from = sh.held_from[i].load(Acquire);
+    if (want > have && keep >= have) || (keep < from && want > keep) {
+        // Nothing held is still needed, or the window starts past what is needed now: restart
+        // it at `keep` (a window holds one contiguous run).
         if let Ok(mut slot) = sh.slots[i].lock() {
             let freed = slot.positions.len() as u64;
             slot.positions = Vec::new();

@@ -1,0 +1,275 @@
+//! `pointlet bench-raster`: every rasterizer × vertex order × encoding × view, timed with GPU
+//! timestamp queries, beside a copy kernel measured in the same process (the paper's Table 1).
+
+use crate::render_cmd::{open_gpu, reorder};
+use crate::view_args::{parse_encoding, parse_order, parse_variant};
+use anyhow::{bail, Context, Result};
+use pointlet_core::color::ColorMode;
+use pointlet_core::order::VertexOrder;
+use pointlet_core::Camera;
+use pointlet_gpu::{
+    copy_bandwidth, GpuCloud, PointEncoding, RasterVariant, RenderSettings, RenderTarget, Renderer,
+    ScreenSettings,
+};
+use serde::Serialize;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A store or any point file; without one, the demo scene of --points points.
+    pub input: Option<PathBuf>,
+    /// Points of the generated scene (without INPUT).
+    #[arg(long, default_value_t = 20_000_000, value_parser = crate::parse_count_arg)]
+    pub points: u64,
+    /// Timed frames per configuration (after 2 warm-up frames); the median is reported.
+    #[arg(long, default_value_t = 20)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 1920)]
+    pub width: u32,
+    #[arg(long, default_value_t = 1080)]
+    pub height: u32,
+    /// Rasterizers to time (default: all the adapter supports).
+    #[arg(long, value_delimiter = ',', value_parser = parse_variant)]
+    pub variants: Vec<RasterVariant>,
+    /// Vertex orders (default: all).
+    #[arg(long, value_delimiter = ',', value_parser = parse_order)]
+    pub orders: Vec<VertexOrder>,
+    /// Encodings (default: both).
+    #[arg(long, value_delimiter = ',', value_parser = parse_encoding)]
+    pub encodings: Vec<PointEncoding>,
+    #[arg(long, default_value_t = 4096)]
+    pub page_size: u32,
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Write every measurement as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Row {
+    variant: &'static str,
+    order: &'static str,
+    encoding: &'static str,
+    view: &'static str,
+    median_ms: f64,
+    min_ms: f64,
+    points_per_s: f64,
+    gb_per_s: f64,
+    fraction_of_copy: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    adapter: String,
+    input: String,
+    points: u64,
+    width: u32,
+    height: u32,
+    frames: u32,
+    page_size: u32,
+    copy_gb_per_s: Option<f64>,
+    rows: Vec<Row>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let draw = crate::view_args::DrawArgs {
+        raster: RasterVariant::AtomicMin,
+        encoding: PointEncoding::Full16,
+        order: VertexOrder::Original,
+        color: ColorMode::Rgb,
+        edl: false,
+        edl_strength: 1.0,
+        edl_radius: 1.4,
+        fill: 0,
+        background: [0.0, 0.0, 0.0, 1.0],
+        adapter: args.adapter.clone(),
+        page_size: args.page_size,
+    };
+    let (ctx, _) = open_gpu(&draw)?;
+    if !ctx.caps.timestamps {
+        bail!(
+            "{} has no timestamp queries: cannot time GPU passes",
+            ctx.describe()
+        );
+    }
+    let variants: Vec<RasterVariant> = if args.variants.is_empty() {
+        RasterVariant::ALL.to_vec()
+    } else {
+        args.variants.clone()
+    };
+    let variants: Vec<RasterVariant> = variants
+        .into_iter()
+        .filter(|v| match v.unsupported_reason(&ctx.caps) {
+            Some(why) => {
+                eprintln!("skipping {}: {why}", v.name());
+                false
+            }
+            None => true,
+        })
+        .collect();
+    let orders = if args.orders.is_empty() {
+        VertexOrder::ALL.to_vec()
+    } else {
+        args.orders.clone()
+    };
+    let encodings = if args.encodings.is_empty() {
+        PointEncoding::ALL.to_vec()
+    } else {
+        args.encodings.clone()
+    };
+    let copy = copy_bandwidth(&ctx, 1 << 30, 10)?;
+    eprintln!(
+        "{}: copy kernel {}",
+        ctx.describe(),
+        copy.map(|g| format!("{g:.1} GB/s"))
+            .unwrap_or_else(|| "n/a".into())
+    );
+    let scene = crate::scene::load(args.input.as_deref(), ColorMode::Rgb, args.points)?;
+    let views: [(&'static str, Camera); 2] = [
+        ("overview", Camera::overview(&scene.bounds, 60.0)),
+        ("closeup", Camera::closeup(&scene.bounds, 60.0)),
+    ];
+    let points = scene.set.len() as u64;
+    eprintln!("{}: {points} points", scene.name);
+    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
+    let mut renderer = Renderer::new(&ctx);
+    let mut rows = Vec::new();
+    for order in &orders {
+        let set = reorder(scene.set.clone(), *order);
+        for encoding in &encodings {
+            let mut cloud = GpuCloud::upload(&ctx, &set, *encoding, args.page_size)
+                .with_context(|| format!("uploading {} points", points))?;
+            for (view, camera) in &views {
+                for variant in &variants {
+                    let settings = RenderSettings {
+                        variant: *variant,
+                        screen: ScreenSettings::default(),
+                    };
+                    let mut times = Vec::new();
+                    for frame in 0..args.frames + 2 {
+                        renderer.render(&ctx, &mut cloud, camera, &settings, &mut target)?;
+                        let t = renderer
+                            .timing(&ctx, &target)?
+                            .context("timestamps vanished")?;
+                        if frame >= 2 {
+                            times.push(t.raster_ms);
+                        }
+                    }
+                    let bytes = (cloud.points * encoding.bytes_per_point()
+                        + cloud.fine_points() * 4)
+                        * variant.geometry_passes() as u64;
+                    let med = median(times.clone());
+                    let gbs = bytes as f64 / (med * 1e6);
+                    rows.push(Row {
+                        variant: variant.name(),
+                        order: order.name(),
+                        encoding: encoding.name(),
+                        view,
+                        median_ms: med,
+                        min_ms: times.iter().cloned().fold(f64::INFINITY, f64::min),
+                        points_per_s: points as f64 / (med * 1e-3),
+                        gb_per_s: gbs,
+                        fraction_of_copy: copy.map(|c| gbs / c),
+                    });
+                    eprintln!(
+                        "  {:<9} {:<15} {:<8} {:<14} {:>9.3} ms",
+                        encoding.name(),
+                        order.name(),
+                        view,
+                        variant.name(),
+                        med
+                    );
+                }
+            }
+        }
+    }
+    print_tables(&rows, &variants, &orders, &encodings);
+    print_summary(&rows, copy);
+    if let Some(path) = &args.json {
+        let report = Report {
+            adapter: ctx.describe(),
+            input: scene.name.clone(),
+            points,
+            width: args.width,
+            height: args.height,
+            frames: args.frames,
+            page_size: args.page_size,
+            copy_gb_per_s: copy,
+            rows,
+        };
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn print_tables(
+    rows: &[Row],
+    variants: &[RasterVariant],
+    orders: &[VertexOrder],
+    encodings: &[PointEncoding],
+) {
+    for encoding in encodings {
+        for view in ["overview", "closeup"] {
+            println!("\n{} / {view}: median raster time (ms)", encoding.name());
+            print!("{:<15}", "");
+            for o in orders {
+                print!("{:>16}", o.name());
+            }
+            println!();
+            for v in variants {
+                print!("{:<15}", v.name());
+                for o in orders {
+                    let cell = rows.iter().find(|r| {
+                        r.variant == v.name()
+                            && r.order == o.name()
+                            && r.encoding == encoding.name()
+                            && r.view == view
+                    });
+                    match cell {
+                        Some(r) => print!("{:>16.3}", r.median_ms),
+                        None => print!("{:>16}", "-"),
+                    }
+                }
+                println!();
+            }
+        }
+    }
+}
+
+fn print_summary(rows: &[Row], copy: Option<f64>) {
+    let best = |view: &str, compute: bool| {
+        rows.iter()
+            .filter(|r| r.view == view && (r.variant != "hw-points") == compute)
+            .min_by(|a, b| a.median_ms.total_cmp(&b.median_ms))
+    };
+    println!();
+    if let Some(c) = copy {
+        println!("copy kernel: {c:.1} GB/s");
+    }
+    for view in ["overview", "closeup"] {
+        if let (Some(c), Some(h)) = (best(view, true), best(view, false)) {
+            println!(
+                "{view}: best compute {} ({} {}) {:.3} ms = {:.2} G points/s, {:.1} GB/s{}; best hw-points {:.3} ms ({}); speed-up {:.1}×",
+                c.variant,
+                c.encoding,
+                c.order,
+                c.median_ms,
+                c.points_per_s / 1e9,
+                c.gb_per_s,
+                c.fraction_of_copy
+                    .map(|f| format!(" ({:.0} % of copy)", f * 100.0))
+                    .unwrap_or_default(),
+                h.median_ms,
+                h.order,
+                h.median_ms / c.median_ms
+            );
+        }
+    }
+}

@@ -1,0 +1,180 @@
+//! `pointlet convert`: readers → store builder, decoding on its own thread.
+
+use anyhow::{bail, Context, Result};
+use pointlet_core::PointBatch;
+use pointlet_store::{BuildConfig, BuildProgress, StoreBuilder};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::sync_channel;
+use std::sync::Arc;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input files or folders (LAS, LAZ, COPC, PLY, XYZ/CSV/TXT); all merge into one store.
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// The store to write (`.pointlet`).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Memory for sorting; larger inputs sort out of core through runs on disk (e.g. 2GiB).
+    #[arg(long, value_parser = crate::parse_bytes_arg)]
+    pub ram_budget: Option<u64>,
+    /// Folder for temporary sorted runs (default: beside the output).
+    #[arg(long)]
+    pub tmp: Option<PathBuf>,
+    /// Target number of pointlets M: pointlet size k = 2^round(log2(n/M)).
+    #[arg(long, default_value_t = 100_000, value_parser = crate::parse_count_arg)]
+    pub pointlets: u64,
+    /// Seed of the shuffle inside each pointlet.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+/// Points per batch handed from the decoder thread to the builder.
+pub const BATCH: usize = 1 << 20;
+
+pub fn run(args: Args) -> Result<()> {
+    let files = pointlet_io::expand_inputs(&args.inputs)?;
+    if files.is_empty() {
+        bail!("no supported point files among the inputs");
+    }
+    refuse_overwriting_inputs(&files, &args.output)?;
+    let mut readers = Vec::with_capacity(files.len());
+    for f in &files {
+        readers.push(pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?);
+    }
+    let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
+    let meta = pointlet_store::merge_meta(&metas)
+        .with_context(|| format!("merging the headers of {}", list_files(&files)))?;
+    let claimed: u64 = metas.iter().map(|m| m.point_count).sum();
+    let started = std::time::Instant::now();
+    let summary = build_store(
+        &args.output,
+        config(
+            args.ram_budget,
+            args.tmp,
+            args.pointlets,
+            args.seed,
+            claimed,
+        ),
+        &meta,
+        files.iter().map(|f| f.display().to_string()).collect(),
+        readers,
+    )?;
+    let secs = started.elapsed().as_secs_f64();
+    eprintln!(
+        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({:.1} M points/s)",
+        args.output.display(),
+        summary.points,
+        summary.pointlets,
+        summary.pointlet_size,
+        secs,
+        summary.points as f64 / secs.max(1e-9) / 1e6
+    );
+    Ok(())
+}
+
+pub fn config(
+    ram_budget: Option<u64>,
+    tmp: Option<PathBuf>,
+    pointlets: u64,
+    seed: u64,
+    expected_points: u64,
+) -> BuildConfig {
+    let bar = crate::progress::bar(expected_points, "sorting");
+    let progress: Arc<dyn Fn(BuildProgress) + Send + Sync> = Arc::new(move |p: BuildProgress| {
+        bar.set_message(format!("{:?}", p.phase).to_lowercase());
+        bar.set_length(p.total);
+        bar.set_position(p.done);
+    });
+    BuildConfig {
+        ram_budget: ram_budget.unwrap_or_else(default_ram_budget),
+        tmp_dir: tmp,
+        target_pointlets: pointlets.max(1),
+        seed,
+        progress: Some(progress),
+    }
+}
+
+/// Half of the memory available now: leaves room for the page cache and the rest of the system.
+pub fn default_ram_budget() -> u64 {
+    let avail = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .map(|kb| kb * 1024);
+    avail.map(|a| a / 2).unwrap_or(2 << 30).max(64 << 20)
+}
+
+/// Streams every reader into a builder; decoding overlaps key computation and sorting.
+pub fn build_store(
+    output: &Path,
+    config: BuildConfig,
+    meta: &pointlet_core::SourceMeta,
+    sources: Vec<String>,
+    readers: Vec<Box<dyn pointlet_io::PointReader>>,
+) -> Result<pointlet_store::BuildSummary> {
+    let mut builder = StoreBuilder::create(output, config, meta, sources)
+        .with_context(|| format!("creating {}", output.display()))?;
+    let (tx, rx) = sync_channel::<Result<PointBatch>>(2);
+    let decoder = std::thread::spawn(move || {
+        for mut r in readers {
+            loop {
+                let batch = r
+                    .read_batch(BATCH)
+                    .with_context(|| format!("reading {}", r.path().display()));
+                match batch {
+                    Ok(Some(b)) => {
+                        if tx.send(Ok(b)).is_err() {
+                            return;
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        let _ = tx.send(Err(e));
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    for batch in rx {
+        // An error drops the builder, which removes its temporary files and partial output.
+        let mut batch = batch?;
+        if batch.layout != meta.layout {
+            batch.widen(meta.layout);
+        }
+        builder.push(&batch)?;
+    }
+    if decoder.join().is_err() {
+        bail!("the decoder thread panicked");
+    }
+    Ok(builder.finish()?)
+}
+
+/// Names for messages: all files when few, else the first ones and how many more.
+fn list_files(files: &[PathBuf]) -> String {
+    let shown: Vec<String> = files.iter().take(3).map(|f| f.display().to_string()).collect();
+    match files.len() {
+        0..=3 => shown.join(", "),
+        n => format!("{} and {} more", shown.join(", "), n - 3),
+    }
+}
+
+fn refuse_overwriting_inputs(files: &[PathBuf], output: &Path) -> Result<()> {
+    let Ok(out) = output.canonicalize() else {
+        return Ok(()); // does not exist yet
+    };
+    for f in files {
+        if f.canonicalize().map(|c| c == out).unwrap_or(false) {
+            bail!(
+                "output {} is also an input: refusing to overwrite an input file",
+                output.display()
+            );
+        }
+    }
+    Ok(())
+}

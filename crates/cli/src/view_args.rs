@@ -1,0 +1,172 @@
+//! Arguments shared by the commands that draw: camera, rasterizer, screen passes, adapter.
+
+use anyhow::{bail, Result};
+use pointlet_core::color::ColorMode;
+use pointlet_core::order::VertexOrder;
+use pointlet_core::{Aabb, Camera};
+use pointlet_gpu::{EdlSettings, PointEncoding, RasterVariant, ScreenSettings};
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct CameraArgs {
+    /// Predefined view: `overview` (all data from above at an angle) or `closeup`.
+    #[arg(long, default_value = "overview", value_parser = ["overview", "closeup"])]
+    pub view: String,
+    /// Eye position in the data's coordinates, `x,y,z` (with --target: overrides --view).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<[f64; 3]>,
+    /// Point looked at, `x,y,z`.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<[f64; 3]>,
+    /// Up direction, `x,y,z` (data is z-up by default).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov: f64,
+}
+
+impl CameraArgs {
+    pub fn camera(&self, bounds: &Aabb) -> Result<Camera> {
+        let mut cam = match self.view.as_str() {
+            "closeup" => Camera::closeup(bounds, self.fov),
+            _ => Camera::overview(bounds, self.fov),
+        };
+        match (self.eye, self.target) {
+            (Some(eye), Some(target)) => {
+                cam.eye = eye;
+                cam.target = target;
+                cam.up = self.up;
+                cam.fit_planes(bounds);
+            }
+            (None, None) => {}
+            _ => bail!("--eye and --target go together"),
+        }
+        cam.fov_y_deg = self.fov;
+        cam.validate()?;
+        Ok(cam)
+    }
+}
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct DrawArgs {
+    /// Rasterizer: hw-points, atomic-min, early-z, reduce, reduce-early-z, dedup, hqs, hqs1r,
+    /// atomic-min-32.
+    #[arg(long, default_value = "reduce-early-z", value_parser = parse_variant)]
+    pub raster: RasterVariant,
+    /// GPU point encoding: full16 (f32 xyz + RGBA8) or compact8 (quantized, 8 bytes).
+    #[arg(long, default_value = "full16", value_parser = parse_encoding)]
+    pub encoding: PointEncoding,
+    /// Order of the points in GPU memory: original, morton, shuffled, shuffled-morton, hilbert.
+    #[arg(long, default_value = "original", value_parser = parse_order)]
+    pub order: VertexOrder,
+    /// Colour by: rgb, intensity, elevation, classification, return-number, point-source-id,
+    /// gps-time.
+    #[arg(long, default_value = "rgb", value_parser = parse_color)]
+    pub color: ColorMode,
+    /// Eye-Dome Lighting.
+    #[arg(long)]
+    pub edl: bool,
+    #[arg(long, default_value_t = 1.0)]
+    pub edl_strength: f32,
+    #[arg(long, default_value_t = 1.4)]
+    pub edl_radius: f32,
+    /// Hole filling radius in pixels (0 = off).
+    #[arg(long, default_value_t = 0)]
+    pub fill: u32,
+    /// Background colour, `r,g,b` (0–255) or `#rrggbb`.
+    #[arg(long, default_value = "0,0,0", value_parser = parse_color_rgb)]
+    pub background: [f32; 4],
+    /// GPU adapter: an index or part of the name (default: the best one).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Points per GPU page (power of two, 256–65536).
+    #[arg(long, default_value_t = 4096)]
+    pub page_size: u32,
+}
+
+impl DrawArgs {
+    pub fn screen(&self) -> ScreenSettings {
+        ScreenSettings {
+            fill_radius: self.fill,
+            edl: self.edl.then_some(EdlSettings {
+                strength: self.edl_strength,
+                radius: self.edl_radius,
+            }),
+            background: self.background,
+        }
+    }
+}
+
+pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}': expected three numbers x,y,z"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("'{s}': expected three finite numbers x,y,z")),
+    }
+}
+
+fn names<T: Copy>(all: &[T], name: fn(T) -> &'static str) -> String {
+    all.iter().map(|v| name(*v)).collect::<Vec<_>>().join(", ")
+}
+
+pub fn parse_variant(s: &str) -> Result<RasterVariant, String> {
+    RasterVariant::parse(s).ok_or_else(|| {
+        format!(
+            "unknown rasterizer '{s}' (one of: {})",
+            names(&RasterVariant::ALL, RasterVariant::name)
+        )
+    })
+}
+
+pub fn parse_encoding(s: &str) -> Result<PointEncoding, String> {
+    PointEncoding::parse(s).ok_or_else(|| {
+        format!(
+            "unknown encoding '{s}' (one of: {})",
+            names(&PointEncoding::ALL, PointEncoding::name)
+        )
+    })
+}
+
+pub fn parse_order(s: &str) -> Result<VertexOrder, String> {
+    VertexOrder::parse(s).ok_or_else(|| {
+        format!(
+            "unknown order '{s}' (one of: {})",
+            names(&VertexOrder::ALL, VertexOrder::name)
+        )
+    })
+}
+
+pub fn parse_color(s: &str) -> Result<ColorMode, String> {
+    ColorMode::parse(s).ok_or_else(|| {
+        format!(
+            "unknown colouring '{s}' (one of: {})",
+            names(&ColorMode::ALL, ColorMode::name)
+        )
+    })
+}
+
+pub fn parse_color_rgb(s: &str) -> Result<[f32; 4], String> {
+    let err = || format!("'{s}': expected r,g,b (0–255) or #rrggbb");
+    let rgb: Vec<u8> = if let Some(hex) = s.strip_prefix('#') {
+        if hex.len() != 6 {
+            return Err(err());
+        }
+        (0..3)
+            .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16))
+            .collect::<Result<_, _>>()
+            .map_err(|_| err())?
+    } else {
+        s.split(',')
+            .map(|t| t.trim().parse::<u8>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| err())?
+    };
+    match rgb.as_slice() {
+        [r, g, b] => Ok([*r as f32 / 255.0, *g as f32 / 255.0, *b as f32 / 255.0, 1.0]),
+        _ => Err(err()),
+    }
+}

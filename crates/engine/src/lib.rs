@@ -1,0 +1,26 @@
+//! The virtualized renderer (virtualized paper §III-C): a store on disk, the RAM cache of
+//! pointlet windows fed by loader threads, and the GPU page pool, wired so that every frame the
+//! GPU LoD's requests flow back to the CPU, the CPU moves what arrived into free pages, and the
+//! GPU draws what is resident. Only changes cost work; nothing waits for the disk.
+
+mod residency;
+mod scene;
+mod source;
+
+pub use residency::{ResidencySet, Window};
+pub use scene::{target_bytes, FrameReport, SceneConfig, VirtualScene};
+pub use source::{has_attribute, StoreSource};
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum EngineError {
+    #[error(transparent)]
+    Store(#[from] pointlet_store::StoreError),
+    #[error(transparent)]
+    Gpu(#[from] pointlet_gpu::GpuError),
+    #[error("{0}")]
+    Config(String),
+    #[error("reading points: {0}")]
+    Read(String),
+}

@@ -1,0 +1,428 @@
+//! A store rendered through the virtual memory system (virtualized paper §III-C): the GPU LoD
+//! requests points per pointlet, loader threads bring them from disk into the RAM cache, and
+//! each frame moves a bounded number of them into GPU page slots, evicting pages nobody needs.
+//! The render thread never waits for the disk: it draws what is resident.
+
+use crate::residency::ResidencySet;
+use crate::source::StoreSource;
+use crate::EngineError;
+use pointlet_core::color::ColorMode;
+use pointlet_core::{Aabb, Camera, Quantization};
+use pointlet_gpu::{
+    GpuContext, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings, RenderTarget,
+    Renderer,
+};
+use pointlet_store::Store;
+use pointlet_stream::{CacheConfig, CacheStats, RamCache};
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Clone, Debug)]
+pub struct SceneConfig {
+    /// GPU memory for points and every table (the framebuffers of the target count too).
+    pub vram_budget: u64,
+    /// RAM for cached points.
+    pub ram_budget: u64,
+    /// The LoD's point bucket B (paper default 25 M).
+    pub bucket: f64,
+    pub encoding: PointEncoding,
+    /// Points per GPU page.
+    pub page_size: u32,
+    pub loaders: usize,
+    /// Points moved from RAM to the GPU per frame at most (keeps frames steady).
+    pub upload_per_frame: u64,
+    pub color: ColorMode,
+}
+
+impl Default for SceneConfig {
+    fn default() -> Self {
+        Self {
+            vram_budget: 2 << 30,
+            ram_budget: 4 << 30,
+            bucket: 25e6,
+            encoding: PointEncoding::Compact8,
+            page_size: 256,
+            loaders: 4,
+            upload_per_frame: 4 << 20,
+            color: ColorMode::Rgb,
+        }
+    }
+}
+
+/// What one frame did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameReport {
+    pub frame: u64,
+    /// CPU time of the residency step (feedback, requests, uploads, evictions).
+    pub residency_ms: f64,
+    pub points_uploaded: u64,
+    pub bytes_uploaded: u64,
+    pub pages_evicted: u64,
+    pub pages_resident: u32,
+    pub gpu_points: u64,
+    /// From the latest LoD feedback (a frame or two old).
+    pub requested_points: u64,
+    pub drawn_points: u64,
+    pub bucket: f64,
+    pub accumulating: bool,
+    /// The image is the full-detail image of this (still) view.
+    pub converged: bool,
+    pub cache: CacheStats,
+}
+
+pub struct VirtualScene {
+    store: Arc<Store>,
+    cache: RamCache<StoreSource>,
+    paged: PagedCloud,
+    residency: ResidencySet,
+    config: SceneConfig,
+    quantization: Quantization,
+    counts: Vec<u32>,
+    requested: Vec<u32>,
+    drawn: Vec<u32>,
+    feedback_frame: u64,
+    last_camera: Option<(Camera, RenderSettings, (u32, u32))>,
+    still_frames: u32,
+    /// First frame drawn into the kept framebuffer of the current still view.
+    accumulating_since: Option<u64>,
+    total_points: u64,
+    slots: u32,
+    positions: Vec<[f64; 3]>,
+    order: Vec<(f64, u32)>,
+}
+
+/// Bytes of GPU memory a render target of this size allocates.
+pub fn target_bytes(width: u32, height: u32) -> u64 {
+    RenderTarget::bytes_for(width, height)
+}
+
+impl VirtualScene {
+    /// Opens a store for rendering into images of `image` pixels within the budgets.
+    pub fn open(
+        ctx: &GpuContext,
+        path: &Path,
+        config: SceneConfig,
+        image: (u32, u32),
+    ) -> Result<Self, EngineError> {
+        let store = Arc::new(Store::open(path)?);
+        let header = store.header().clone();
+        if !crate::source::has_attribute(&header.layout, config.color) {
+            return Err(EngineError::Config(format!(
+                "{} has no {} attribute to colour by",
+                path.display(),
+                config.color.name()
+            )));
+        }
+        let descs: Vec<PointletDesc> = store
+            .pointlets()
+            .iter()
+            .map(|p| PointletDesc {
+                aabb: p.aabb,
+                count: p.count,
+            })
+            .collect();
+        let fixed =
+            PagedCloud::overhead_bytes(&descs, config.page_size) + target_bytes(image.0, image.1);
+        let per_slot = PagedCloud::slot_bytes(config.encoding, config.page_size);
+        let slots = config.vram_budget.saturating_sub(fixed) / per_slot;
+        // A page per pointlet at least, or the LoD could never draw some visible pointlet.
+        if slots < descs.len() as u64 {
+            return Err(EngineError::Config(format!(
+                "a VRAM budget of {} is too small for {} pointlets: the tables and a {}×{} frame need {}, and every pointlet a page of {} bytes (at least {} in all)",
+                pointlet_core::size::format_bytes(config.vram_budget),
+                descs.len(),
+                image.0,
+                image.1,
+                pointlet_core::size::format_bytes(fixed),
+                per_slot,
+                pointlet_core::size::format_bytes(fixed + descs.len() as u64 * per_slot)
+            )));
+        }
+        let slots = slots.min(u32::MAX as u64 / 2) as u32;
+        let paged = PagedCloud::new(ctx, descs.clone(), config.encoding, config.page_size, slots)?;
+        let source = StoreSource::new(store.clone(), config.color)?;
+        let cache = RamCache::new(
+            source,
+            CacheConfig {
+                ram_budget: config.ram_budget,
+                loaders: config.loaders.max(1),
+                ..Default::default()
+            },
+        )
+        .map_err(|e| EngineError::Config(format!("starting loader threads: {e}")))?;
+        let n = descs.len();
+        Ok(Self {
+            store,
+            cache,
+            residency: ResidencySet::new(n, slots, config.page_size),
+            paged,
+            quantization: header.quantization,
+            counts: descs.iter().map(|d| d.count).collect(),
+            requested: vec![0; n],
+            drawn: vec![0; n],
+            feedback_frame: 0,
+            last_camera: None,
+            still_frames: 0,
+            accumulating_since: None,
+            total_points: header.points,
+            slots,
+            config,
+            positions: Vec::new(),
+            order: Vec::new(),
+        })
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.store.header().bounds
+    }
+
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    pub fn points(&self) -> u64 {
+        self.total_points
+    }
+
+    /// GPU bytes this scene allocated (pool and tables; add the render target's).
+    pub fn gpu_bytes(&self) -> u64 {
+        self.paged.gpu_bytes()
+    }
+
+    pub fn slots(&self) -> u32 {
+        self.slots
+    }
+
+    pub fn cache_stats(&self) -> CacheStats {
+        self.cache.stats()
+    }
+
+    pub fn config(&self) -> &SceneConfig {
+        &self.config
+    }
+
+    /// Draws one frame; never waits for disk. A camera that did not move since the last frame
+    /// keeps the framebuffer and adds points (growing the bucket) until the full-detail image.
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+    ) -> Result<FrameReport, EngineError> {
+        let started = Instant::now();
+        let view_key = (*camera, *settings, (target.width, target.height));
+        let still = self.last_camera.as_ref() == Some(&view_key);
+        self.last_camera = Some(view_key);
+        let accumulate = still && settings.variant.accumulates();
+        if accumulate {
+            self.still_frames += 1;
+            if self.accumulating_since.is_none() {
+                self.accumulating_since = Some(self.paged.frames() + 1);
+            }
+        } else {
+            self.still_frames = 0;
+            self.accumulating_since = None;
+        }
+        let bucket = if accumulate {
+            let growth = 2f64.powi(self.still_frames.min(60) as i32);
+            (self.config.bucket * growth).min(self.total_points as f64 * 1048576.0)
+        } else {
+            self.config.bucket
+        };
+        if let Some(fb) = self.paged.poll_feedback(ctx) {
+            self.requested = fb.requested;
+            self.drawn = fb.drawn;
+            self.feedback_frame = fb.frame;
+        }
+        let mut report = FrameReport {
+            frame: self.paged.frames() + 1,
+            bucket,
+            accumulating: accumulate,
+            ..Default::default()
+        };
+        self.update_residency(ctx, accumulate, &mut report);
+        report.residency_ms = started.elapsed().as_secs_f64() * 1e3;
+        renderer.render_paged(
+            ctx,
+            &mut self.paged,
+            camera,
+            settings,
+            &PagedView { bucket, accumulate },
+            target,
+        )?;
+        report.requested_points = self.requested.iter().map(|v| *v as u64).sum();
+        report.drawn_points = self.drawn.iter().map(|v| *v as u64).sum();
+        report.pages_resident = self.residency.resident_pages(self.slots);
+        report.gpu_points = self
+            .residency
+            .windows()
+            .iter()
+            .map(|w| w.points() as u64)
+            .sum();
+        report.converged = self.converged();
+        report.cache = self.cache.stats();
+        if let Some(e) = self.cache.take_error() {
+            return Err(EngineError::Read(e.to_string()));
+        }
+        Ok(report)
+    }
+
+    /// True once feedback from a still frame shows every visible pointlet requested and drawn
+    /// in full.
+    fn converged(&self) -> bool {
+        let Some(since) = self.accumulating_since else {
+            return false;
+        };
+        self.feedback_frame >= since
+            && self
+                .requested
+                .iter()
+                .zip(&self.drawn)
+                .zip(&self.counts)
+                .all(|((r, d), c)| (*r == 0 || r == c) && d >= r)
+    }
+
+    fn update_residency(&mut self, ctx: &GpuContext, accumulate: bool, report: &mut FrameReport) {
+        let n = self.counts.len();
+        let ps = self.config.page_size;
+        let frame = report.frame;
+        // RAM: a moving camera needs prefixes; a still one only what the GPU does not hold yet.
+        let keep: Vec<u32> = if accumulate {
+            (0..n).map(|i| self.residency.window(i).hi).collect()
+        } else {
+            Vec::new()
+        };
+        self.cache.request_window(&self.requested, &keep);
+        // GPU: drawing a moving view needs prefixes, so windows that lost their front while
+        // the camera was still start over. While still, pages already drawn may go — judged
+        // only by feedback of accumulating frames, whose drawn counts never shrink.
+        let drawn_valid = self
+            .accumulating_since
+            .is_some_and(|since| self.feedback_frame >= since);
+        for i in 0..n {
+            if self.requested[i] > 0 {
+                self.residency.touch(i, frame);
+            }
+            if !accumulate && self.residency.window(i).lo > 0 {
+                report.pages_evicted += self.residency.clear(i, 0) as u64;
+            } else if accumulate && drawn_valid {
+                report.pages_evicted += self.residency.trim_head(i, self.drawn[i]) as u64;
+            }
+        }
+        // Most starved first: the smallest share of its request resident.
+        self.order.clear();
+        for i in 0..n {
+            let w = self.residency.window(i);
+            let want = self.requested[i];
+            let held = self.cache.held(i);
+            if want > w.hi && held.start <= w.hi && held.end > w.hi {
+                self.order.push((w.hi as f64 / want as f64, i as u32));
+            }
+        }
+        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let mut budget = self.config.upload_per_frame;
+        let mut victims: Option<Vec<u32>> = None;
+        let order = std::mem::take(&mut self.order);
+        'pointlets: for (_, i) in &order {
+            let i = *i as usize;
+            let target_hi = self.requested[i].min(self.cache.held(i).end);
+            while self.residency.window(i).hi < target_hi && budget > 0 {
+                let hi = self.residency.window(i).hi;
+                let slot = match self.residency.slot_for_next(i) {
+                    Some(s) => s,
+                    None => {
+                        let v = victims.get_or_insert_with(|| self.victims());
+                        if !self.evict_one(v, i, report) {
+                            break 'pointlets;
+                        }
+                        continue;
+                    }
+                };
+                let page_end = (hi / ps + 1) * ps;
+                let end = target_hi
+                    .min(page_end)
+                    .min(hi + budget.min(u32::MAX as u64) as u32);
+                let q = self.quantization;
+                let positions = &mut self.positions;
+                let paged = &mut self.paged;
+                let written = self
+                    .cache
+                    .with_points(i, hi..end, |first, raw, colors| {
+                        if first != hi {
+                            return 0;
+                        }
+                        positions.clear();
+                        positions.extend(raw.iter().map(|p| q.dequantize(*p)));
+                        paged.write_points(ctx, i as u32, slot, hi, positions, colors);
+                        raw.len() as u32
+                    })
+                    .unwrap_or(0);
+                if written == 0 {
+                    // The slot taken for this page stays with the window; it fills next frame.
+                    break;
+                }
+                self.residency.extend(i, hi + written);
+                budget = budget.saturating_sub(written as u64);
+                report.points_uploaded += written as u64;
+            }
+            if budget == 0 {
+                break;
+            }
+        }
+        self.order = order;
+        report.bytes_uploaded =
+            report.points_uploaded * self.config.encoding.resident_bytes_per_point();
+        for i in self.residency.take_dirty() {
+            let w = self.residency.window(i as usize);
+            let slots: Vec<u32> = w.slots.iter().copied().collect();
+            self.paged.set_residency(ctx, i, w.lo, w.hi, &slots);
+        }
+    }
+
+    /// Pointlets whose pages may go, best victims last (popped first): not requested, least
+    /// recently used; then those holding more than requested.
+    fn victims(&self) -> Vec<u32> {
+        let mut v: Vec<(u8, u64, u32)> = self
+            .residency
+            .windows()
+            .iter()
+            .enumerate()
+            .filter(|(i, w)| !w.slots.is_empty() && w.hi > self.requested[*i])
+            .map(|(i, w)| ((self.requested[i] > 0) as u8, w.last_used, i as u32))
+            .collect();
+        // Popped from the back: unrequested before partly requested, older before newer.
+        v.sort_unstable_by(|a, b| b.cmp(a));
+        v.into_iter().map(|(_, _, i)| i).collect()
+    }
+
+    /// Frees one page from the victim list (never from `needy` itself). False when none is left.
+    fn evict_one(
+        &mut self,
+        victims: &mut Vec<u32>,
+        needy: usize,
+        report: &mut FrameReport,
+    ) -> bool {
+        let ps = self.config.page_size;
+        while let Some(&v) = victims.last() {
+            let v = v as usize;
+            let w = self.residency.window(v);
+            let keep = self.requested[v];
+            if v == needy || w.slots.is_empty() || w.hi <= keep {
+                victims.pop();
+                continue;
+            }
+            // Drop the last page (or the part beyond the request, if that is a whole page).
+            let last_page_start = w.lo + (w.slots.len() as u32 - 1) * ps;
+            let freed = self.residency.trim_tail(v, last_page_start.max(keep));
+            if freed > 0 {
+                report.pages_evicted += freed as u64;
+                return true;
+            }
+            victims.pop();
+        }
+        false
+    }
+}

@@ -1,0 +1,133 @@
+//! Reads pointlet ranges from a store for the RAM cache: quantized positions plus one RGBA8
+//! colour per point, computed from the attribute the user colours by.
+
+use pointlet_core::color::{point_color, ColorMode, ColorScale};
+use pointlet_core::{PointBatch, PointLayout};
+use pointlet_store::{Store, StreamKind};
+use pointlet_stream::{PointletData, PointletSource, SourceError};
+use std::ops::Range;
+use std::sync::Arc;
+
+pub struct StoreSource {
+    store: Arc<Store>,
+    scale: ColorScale,
+}
+
+/// The stream a colour mode reads besides positions (none for elevation).
+fn stream_for(mode: ColorMode) -> Option<StreamKind> {
+    match mode {
+        ColorMode::Rgb => Some(StreamKind::Rgb),
+        ColorMode::Intensity => Some(StreamKind::Intensity),
+        ColorMode::Elevation => None,
+        ColorMode::Classification => Some(StreamKind::Classification),
+        ColorMode::ReturnNumber => Some(StreamKind::Returns),
+        ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
+        ColorMode::GpsTime => Some(StreamKind::GpsTime),
+    }
+}
+
+/// Whether a store has what `mode` colours by.
+pub fn has_attribute(layout: &PointLayout, mode: ColorMode) -> bool {
+    match mode {
+        ColorMode::Rgb => layout.rgb,
+        ColorMode::GpsTime => layout.gps_time,
+        _ => true,
+    }
+}
+
+impl StoreSource {
+    /// Colours by `mode`, with ranges fitted on the store's first pointlet (a uniform sample:
+    /// pointlets are shuffled).
+    pub fn new(store: Arc<Store>, mode: ColorMode) -> Result<Self, pointlet_store::StoreError> {
+        let sample = if store.pointlets().is_empty() {
+            PointBatch::default()
+        } else {
+            store.read_pointlet(0)?
+        };
+        let b = store.header().bounds;
+        let scale = ColorScale::fit(mode, &sample, [b.min[2], b.max[2]]);
+        Ok(Self { store, scale })
+    }
+
+    pub fn scale(&self) -> &ColorScale {
+        &self.scale
+    }
+
+    fn error(&self, i: usize, range: &Range<u32>, e: impl std::fmt::Display) -> SourceError {
+        SourceError {
+            pointlet: i,
+            range: range.clone(),
+            message: format!("{}: {e}", self.store.path().display()),
+        }
+    }
+}
+
+impl PointletSource for StoreSource {
+    fn pointlet_count(&self) -> usize {
+        self.store.pointlets().len()
+    }
+
+    fn pointlet_len(&self, i: usize) -> u32 {
+        self.store.pointlets().get(i).map_or(0, |p| p.count)
+    }
+
+    fn read(&self, i: usize, range: Range<u32>, out: &mut PointletData) -> Result<(), SourceError> {
+        let positions = self
+            .store
+            .read_positions(i, range.clone())
+            .map_err(|e| self.error(i, &range, e))?;
+        let n = positions.len();
+        let mode = self.scale.mode;
+        let mut batch = PointBatch::default();
+        match stream_for(mode) {
+            None => {
+                let q = self.store.header().quantization;
+                batch.xyz = positions.iter().map(|p| q.dequantize(*p)).collect();
+            }
+            Some(kind) if self.store.header().stream(kind).is_some() => {
+                let mut raw = Vec::new();
+                self.store
+                    .read_stream_raw(kind, i, range.clone(), &mut raw)
+                    .map_err(|e| self.error(i, &range, e))?;
+                fill_column(&mut batch, kind, &raw);
+            }
+            // The store lacks the attribute: every point draws grey.
+            Some(_) => {}
+        }
+        out.attribute
+            .extend((0..n).map(|k| point_color(&batch, k, &self.scale)));
+        out.positions.extend_from_slice(&positions);
+        Ok(())
+    }
+}
+
+/// Decodes one little-endian stream into the matching column of `batch`.
+fn fill_column(batch: &mut PointBatch, kind: StreamKind, raw: &[u8]) {
+    let u16s = || {
+        raw.chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+    };
+    match kind {
+        StreamKind::Rgb => {
+            batch.rgb = raw
+                .chunks_exact(6)
+                .map(|c| [0, 1, 2].map(|k| u16::from_le_bytes([c[2 * k], c[2 * k + 1]])))
+                .collect()
+        }
+        StreamKind::Intensity => batch.intensity = u16s().collect(),
+        StreamKind::PointSourceId => batch.point_source_id = u16s().collect(),
+        StreamKind::Classification => batch.classification = raw.to_vec(),
+        StreamKind::Returns => batch.returns = raw.to_vec(),
+        StreamKind::GpsTime => {
+            batch.gps_time = raw
+                .chunks_exact(8)
+                .map(|c| {
+                    let mut b = [0u8; 8];
+                    b.copy_from_slice(c);
+                    f64::from_le_bytes(b)
+                })
+                .collect()
+        }
+        _ => {}
+    }
+}
