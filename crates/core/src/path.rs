@@ -320,16 +320,7 @@ impl CameraPath {
             t.max(first.time).min(last.time)
         };
         if keys.len() == 1 {
-            return finish(
-                first.eye,
-                first.target,
-                first.up,
-                first.fov,
-                first,
-                first,
-                0.0,
-                near_far_from,
-            );
+            return finish(*first, first, first, 0.0, near_far_from);
         }
         // Segment [k, k+1] holding t; k ≤ len − 2 so both ends exist.
         let k = keys
@@ -359,9 +350,14 @@ impl CameraPath {
             h,
             s,
         );
-        let up = normalize(lerp3(unit(a.up), unit(b.up), s));
-        let fov = a.fov + (b.fov - a.fov) * s;
-        finish(eye, target, up, fov, a, b, s, near_far_from)
+        let pose = Keyframe {
+            time: t,
+            eye,
+            target,
+            up: normalize(lerp3(unit(a.up), unit(b.up), s)),
+            fov: a.fov + (b.fov - a.fov) * s,
+        };
+        finish(pose, a, b, s, near_far_from)
     }
 
     /// Time-aware Catmull-Rom tangent (units per second) of one vector at keyframe `i`:
@@ -509,21 +505,17 @@ fn hermite(p0: [f64; 3], m0: [f64; 3], p1: [f64; 3], m1: [f64; 3], h: f64, s: f6
     std::array::from_fn(|i| h00 * p0[i] + h10 * h * m0[i] + h01 * p1[i] + h11 * h * m1[i])
 }
 
-/// Builds a valid camera from interpolated values: repairs a vanished view direction or up
-/// vector (possible between keyframes that swap eye and target or roll by 180°), then fits the
-/// planes.
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    eye: [f64; 3],
-    target: [f64; 3],
-    up: [f64; 3],
-    fov: f64,
-    a: &Keyframe,
-    b: &Keyframe,
-    s: f64,
-    near_far_from: &Aabb,
-) -> Camera {
-    let mut target = target;
+/// Builds a valid camera from `pose`, interpolated at `s` between keyframes `a` and `b`:
+/// repairs a vanished view direction or up vector (possible between keyframes that swap eye and
+/// target or roll by 180°), then fits the planes.
+fn finish(pose: Keyframe, a: &Keyframe, b: &Keyframe, s: f64, near_far_from: &Aabb) -> Camera {
+    let Keyframe {
+        eye,
+        mut target,
+        up,
+        fov,
+        ..
+    } = pose;
     if length(sub(target, eye)) == 0.0 {
         let (dir_a, dir_b) = (
             normalize(sub(a.target, a.eye)),
@@ -544,7 +536,7 @@ fn finish(
         ];
     }
     let view = normalize(sub(target, eye));
-    let up = [up, unit(a.up), unit(b.up)]
+    let up = [unit(up), unit(a.up), unit(b.up)]
         .into_iter()
         .map(|u| orthogonal_part(u, view))
         .find(|u| length(*u) > 1e-6)
@@ -876,6 +868,11 @@ mod tests {
             (path.keyframes[1].eye, path.keyframes[1].target)
         );
         assert_eq!(single.duration(), 0.0);
+        let mut huge_up = single.clone();
+        huge_up.keyframes[0].up = [1e300, 0.0, 1e300];
+        let c = huge_up.camera_at(0.0, &b);
+        c.validate().unwrap();
+        assert!(c.up[2] > 0.5, "{:?}", c.up);
         // Empty path: documented fallback, no panic.
         let c = CameraPath::default().camera_at(1.0, &b);
         c.validate().unwrap();
