@@ -8,6 +8,7 @@ pub mod color;
 pub mod lod;
 pub mod order;
 pub mod partition;
+pub mod path;
 pub mod points;
 pub mod shuffle;
 pub mod size;
