@@ -157,7 +157,11 @@ pub fn build_store(
 
 /// Names for messages: all files when few, else the first ones and how many more.
 fn list_files(files: &[PathBuf]) -> String {
-    let shown: Vec<String> = files.iter().take(3).map(|f| f.display().to_string()).collect();
+    let shown: Vec<String> = files
+        .iter()
+        .take(3)
+        .map(|f| f.display().to_string())
+        .collect();
     match files.len() {
         0..=3 => shown.join(", "),
         n => format!("{} and {} more", shown.join(", "), n - 3),

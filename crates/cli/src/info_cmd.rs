@@ -137,7 +137,7 @@ pub fn crs(vlrs: &[Vlr]) -> Value {
             return json!({ "wkt": wkt });
         }
     }
-    for v in vlrs.iter().filter(|v| v.is_crs() && v.record_id == 34735) {
+    if let Some(v) = vlrs.iter().find(|v| v.is_crs() && v.record_id == 34735) {
         let keys: Vec<u16> = v
             .data
             .chunks_exact(2)

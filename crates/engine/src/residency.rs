@@ -73,7 +73,7 @@ impl ResidencySet {
     pub fn slot_for_next(&mut self, i: usize) -> Option<u32> {
         let ps = self.page_size;
         let w = &self.windows[i];
-        if w.hi % ps != 0 && w.hi > w.lo {
+        if !w.hi.is_multiple_of(ps) && w.hi > w.lo {
             return w.slots.back().copied();
         }
         let slot = self.free.pop()?;

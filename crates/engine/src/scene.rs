@@ -230,7 +230,13 @@ impl VirtualScene {
             let growth = 2f64.powi(self.still_frames.min(60) as i32);
             (self.config.bucket * growth).min(self.total_points as f64 * 1048576.0)
         } else {
-            self.config.bucket
+            // Asking for more than the pool holds only starves pointlets at random; within
+            // it the LoD shares points out fairly. Half a page per pointlet is lost to rounding.
+            let pool = self.slots as f64 * self.config.page_size as f64
+                - 0.5 * self.config.page_size as f64 * self.counts.len() as f64;
+            self.config
+                .bucket
+                .min(pool.max(self.config.page_size as f64))
         };
         if let Some(fb) = self.paged.poll_feedback(ctx) {
             self.requested = fb.requested;
@@ -289,12 +295,19 @@ impl VirtualScene {
         let n = self.counts.len();
         let ps = self.config.page_size;
         let frame = report.frame;
-        // RAM: a moving camera needs prefixes; a still one only what the GPU does not hold yet.
-        let keep: Vec<u32> = if accumulate {
-            (0..n).map(|i| self.residency.window(i).hi).collect()
-        } else {
-            Vec::new()
-        };
+        // RAM holds what the GPU does not: points below a window's end are on the GPU (or, while
+        // still, drawn), so under pressure RAM drops them first and a RAM budget smaller than
+        // the view still lets every point through. Windows that must restart from 0 keep all.
+        let keep: Vec<u32> = (0..n)
+            .map(|i| {
+                let w = self.residency.window(i);
+                if w.lo == 0 || accumulate {
+                    w.hi
+                } else {
+                    0
+                }
+            })
+            .collect();
         self.cache.request_window(&self.requested, &keep);
         // GPU: drawing a moving view needs prefixes, so windows that lost their front while
         // the camera was still start over. While still, pages already drawn may go — judged

@@ -403,7 +403,8 @@ fn creation_date() -> (u16, u16) {
     let mut days = secs / 86_400;
     let mut year = 1970u64;
     loop {
-        let leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+        let leap =
+            (year.is_multiple_of(4) && !year.is_multiple_of(100)) || year.is_multiple_of(400);
         let len = if leap { 366 } else { 365 };
         if days < len {
             return ((days + 1) as u16, year as u16);

@@ -1,0 +1,203 @@
+//! The virtualized renderer under budgets far below the store: it streams, evicts, keeps to the
+//! budgets, and once the camera stops converges to exactly the full-detail image.
+
+use pointlet_core::color::ColorMode;
+use pointlet_core::Camera;
+use pointlet_engine::{target_bytes, SceneConfig, VirtualScene};
+use pointlet_gpu::{
+    AdapterRequest, GpuContext, PointEncoding, RasterVariant, RenderSettings, RenderTarget,
+    Renderer,
+};
+use pointlet_io::generate::{SceneConfig as GenConfig, SceneGenerator};
+use pointlet_io::PointReader;
+use pointlet_store::{BuildConfig, StoreBuilder};
+use std::path::Path;
+
+const W: u32 = 96;
+const H: u32 = 64;
+
+fn context() -> GpuContext {
+    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
+        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
+    })
+}
+
+fn build_store(path: &Path, points: u64) {
+    let generator = SceneGenerator::new(GenConfig { points, seed: 11 });
+    let meta = generator.meta();
+    let mut builder = StoreBuilder::create(
+        path,
+        BuildConfig {
+            target_pointlets: 300,
+            ..Default::default()
+        },
+        &meta,
+        vec!["test".into()],
+    )
+    .expect("builder");
+    let mut reader = generator.reader();
+    while let Some(b) = reader.read_batch(1 << 16).expect("generate") {
+        builder.push(&b).expect("push");
+    }
+    builder.finish().expect("finish");
+}
+
+fn settings() -> RenderSettings {
+    RenderSettings {
+        variant: RasterVariant::ReduceEarlyZ,
+        ..Default::default()
+    }
+}
+
+/// Renders `camera` still until the scene reports convergence; returns the image and frames.
+fn converge(
+    ctx: &GpuContext,
+    scene: &mut VirtualScene,
+    renderer: &mut Renderer,
+    target: &mut RenderTarget,
+    camera: &Camera,
+    limit: u32,
+) -> (Vec<u8>, u32) {
+    for frame in 1..=limit {
+        let report = scene
+            .frame(ctx, renderer, camera, &settings(), target)
+            .expect("frame");
+        if report.converged {
+            return (target.read_rgba(ctx).expect("readback"), frame);
+        }
+        // Give the loader threads a moment, as a real frame interval would.
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    panic!("no convergence within {limit} frames");
+}
+
+#[test]
+fn budgets_far_below_the_store_still_converge_to_the_full_detail_image() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("gen.pointlet");
+    let points = 300_000u64;
+    build_store(&path, points);
+    let store_bytes = std::fs::metadata(&path).expect("store").len();
+
+    // Reference: everything fits, an effectively infinite bucket.
+    let mut renderer = Renderer::new(&ctx);
+    let mut target = RenderTarget::new(&ctx, W, H).expect("target");
+    let mut full = VirtualScene::open(
+        &ctx,
+        &path,
+        SceneConfig {
+            vram_budget: 256 << 20,
+            ram_budget: 256 << 20,
+            bucket: 1e12,
+            encoding: PointEncoding::Compact8,
+            color: ColorMode::Rgb,
+            ..Default::default()
+        },
+        (W, H),
+    )
+    .expect("open");
+    let bounds = full.bounds();
+    let overview = Camera::overview(&bounds, 60.0);
+    let (expected, _) = converge(&ctx, &mut full, &mut renderer, &mut target, &overview, 400);
+    drop(full);
+    let covered = expected.chunks(4).filter(|p| p[..3] != [0, 0, 0]).count();
+    assert!(
+        covered > (W * H / 10) as usize,
+        "the overview shows the data: {covered}"
+    );
+
+    // Budgets: RAM a twentieth of the store file, VRAM room for a fifth of the points.
+    let ram_budget = store_bytes / 20;
+    let slot = pointlet_gpu::PagedCloud::slot_bytes(PointEncoding::Compact8, 256);
+    let vram_budget = target_bytes(W, H) + 300 * 1024 + (points / 5 / 256) * slot;
+    let mut scene = VirtualScene::open(
+        &ctx,
+        &path,
+        SceneConfig {
+            vram_budget,
+            ram_budget,
+            bucket: 100_000.0,
+            encoding: PointEncoding::Compact8,
+            color: ColorMode::Rgb,
+            upload_per_frame: 20_000,
+            loaders: 2,
+            ..Default::default()
+        },
+        (W, H),
+    )
+    .expect("open within budget");
+    assert!(
+        scene.gpu_bytes() + target_bytes(W, H) <= vram_budget,
+        "{} + {} > {vram_budget}",
+        scene.gpu_bytes(),
+        target_bytes(W, H)
+    );
+    // Fly: a close-up, then the overview; each frame moves the camera a little.
+    let closeup = Camera::closeup(&bounds, 60.0);
+    let mut moving_evictions = 0;
+    for k in 0..40 {
+        let mut cam = if k < 20 { closeup } else { overview };
+        cam.eye[2] += k as f64 * 0.01;
+        let r = scene
+            .frame(&ctx, &mut renderer, &cam, &settings(), &mut target)
+            .expect("frame");
+        assert!(!r.converged, "a moving camera never converges");
+        moving_evictions += r.pages_evicted;
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let (got, frames) = converge(
+        &ctx,
+        &mut scene,
+        &mut renderer,
+        &mut target,
+        &overview,
+        3000,
+    );
+    let stats = scene.cache_stats();
+    assert!(stats.points_loaded > 0 && stats.load_tasks > 0, "{stats:?}");
+    assert!(
+        stats.points_evicted > 0 && stats.unload_tasks > 0,
+        "RAM evictions: {stats:?}"
+    );
+    assert!(
+        stats.ram_peak <= ram_budget,
+        "RAM peak {} > budget {ram_budget}",
+        stats.ram_peak
+    );
+    assert!(moving_evictions > 0, "GPU pages were evicted while flying");
+    assert!(
+        stats.points_loaded > points,
+        "streaming re-read evicted points: {} loaded of {points}",
+        stats.points_loaded
+    );
+    let differing = got
+        .chunks(4)
+        .zip(expected.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(
+        differing, 0,
+        "converged after {frames} frames but {differing} pixels differ"
+    );
+}
+
+#[test]
+fn a_budget_too_small_for_the_tables_is_refused() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("small.pointlet");
+    build_store(&path, 50_000);
+    let err = VirtualScene::open(
+        &ctx,
+        &path,
+        SceneConfig {
+            vram_budget: 64 << 10,
+            ..Default::default()
+        },
+        (W, H),
+    )
+    .err()
+    .expect("refused");
+    assert!(err.to_string().contains("VRAM budget"), "{err}");
+}
