@@ -392,3 +392,59 @@ pub(crate) fn position_bounds(bytes: &[u8], q: &Quantization) -> Aabb {
         max: q.dequantize(hi),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_offsets_match_the_stream_order() {
+        let rl = RecordLayout::new(&PointLayout::default());
+        let at = |k: StreamKind| rl.fields.iter().find(|f| f.0 == k).map(|f| f.1);
+        assert_eq!(at(StreamKind::Position), Some(0));
+        assert_eq!(at(StreamKind::Intensity), Some(INTENSITY));
+        assert_eq!(at(StreamKind::Returns), Some(RETURNS));
+        assert_eq!(at(StreamKind::Flags), Some(FLAGS));
+        assert_eq!(at(StreamKind::Classification), Some(CLASSIFICATION));
+        assert_eq!(at(StreamKind::ScanAngle), Some(SCAN_ANGLE));
+        assert_eq!(at(StreamKind::UserData), Some(USER_DATA));
+        assert_eq!(at(StreamKind::PointSourceId), Some(POINT_SOURCE_ID));
+        assert_eq!(rl.len, POINT_SOURCE_ID + 2);
+    }
+
+    #[test]
+    fn packing_a_narrower_batch_zero_fills() {
+        let wide = PointLayout {
+            gps_time: true,
+            rgb: true,
+            nir: true,
+            waveform: true,
+            extra_bytes: 3,
+        };
+        let narrow = PointLayout {
+            extra_bytes: 1,
+            ..Default::default()
+        };
+        let mut b = PointBatch::new(narrow);
+        b.xyz.push([0.0; 3]);
+        b.intensity.push(0x0102);
+        b.returns.push(3);
+        b.flags.push(4);
+        b.classification.push(5);
+        b.scan_angle.push(1.5);
+        b.user_data.push(6);
+        b.point_source_id.push(0x0708);
+        b.extra_bytes.push(9);
+        let rl = RecordLayout::new(&wide);
+        let mut rec = vec![0xFF; rl.len];
+        rl.pack(&b, 0, [1, -1, 2], &mut rec);
+        assert_eq!(&rec[0..4], &1i32.to_le_bytes());
+        assert_eq!(&rec[4..8], &(-1i32).to_le_bytes());
+        assert_eq!(&rec[INTENSITY..INTENSITY + 2], &[2, 1]);
+        assert_eq!(&rec[SCAN_ANGLE..SCAN_ANGLE + 4], &1.5f32.to_le_bytes());
+        let extra = rl.extra.unwrap().0;
+        assert_eq!(&rec[extra..], &[9, 0, 0]);
+        // gps, rgb, nir and waveform lie between the fixed fields and the extra bytes.
+        assert!(rec[POINT_SOURCE_ID + 2..extra].iter().all(|x| *x == 0));
+    }
+}
