@@ -150,6 +150,7 @@ pub fn run(args: Args) -> Result<()> {
                     let settings = RenderSettings {
                         variant: *variant,
                         screen: ScreenSettings::default(),
+                        ..Default::default()
                     };
                     let mut times = Vec::new();
                     for frame in 0..args.frames + 2 {

@@ -75,6 +75,7 @@ pub fn run(args: Args) -> Result<()> {
     let settings = RenderSettings {
         variant,
         screen: args.draw.screen(),
+        ..Default::default()
     };
     renderer.render(&ctx, &mut cloud, &camera, &settings, &mut target)?;
     let rgba = target.read_rgba(&ctx)?;

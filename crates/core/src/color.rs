@@ -142,8 +142,10 @@ impl Ramp {
     }
 }
 
-pub fn pack_rgba(c: [u8; 3]) -> u32 {
-    u32::from_le_bytes([c[0], c[1], c[2], 255])
+/// The word the GPU draws: red, green, blue, and the ASPRS class in the alpha byte (the
+/// renderer hides classes by it; the image itself is opaque).
+pub fn pack_rgba(c: [u8; 3], class: u8) -> u32 {
+    u32::from_le_bytes([c[0], c[1], c[2], class])
 }
 
 /// The standard ASPRS LAS classification colours (as the common viewers draw them).
@@ -206,7 +208,8 @@ const RETURN_COLORS: [[u8; 3]; 5] = [
     [170, 80, 220],
 ];
 
-/// RGBA8 of point `i` of `batch` under `scale`. Attributes the batch lacks draw grey.
+/// The word drawn for point `i` of `batch` under `scale` (see [`pack_rgba`]). Attributes the
+/// batch lacks draw grey.
 pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
     let norm = |v: f64| {
         let t = (v - scale.range[0]) / (scale.range[1] - scale.range[0]);
@@ -241,7 +244,7 @@ pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
             .get(i)
             .map_or(grey, |t| scale.ramp.at(norm(*t))),
     };
-    pack_rgba(c)
+    pack_rgba(c, batch.classification.get(i).copied().unwrap_or(0))
 }
 
 #[cfg(test)]
@@ -268,13 +271,21 @@ mod tests {
         b.classification.push(6);
         let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
         assert!(s.rgb_8bit);
-        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50]));
+        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50], 6));
         b.rgb[0] = [51200, 25600, 12800];
         let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
         assert!(!s.rgb_8bit);
-        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50]));
+        assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50], 6));
         let s = ColorScale::fit(ColorMode::Classification, &b, [0.0, 1.0]);
-        assert_eq!(point_color(&b, 0, &s), pack_rgba(classification_color(6)));
+        assert_eq!(
+            point_color(&b, 0, &s),
+            pack_rgba(classification_color(6), 6)
+        );
+        assert_eq!(
+            point_color(&b, 0, &s) >> 24,
+            6,
+            "the class rides in the alpha byte"
+        );
         assert_eq!(classification_name(2), "ground");
     }
 }

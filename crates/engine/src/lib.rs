@@ -8,8 +8,8 @@ mod scene;
 mod source;
 
 pub use residency::{ResidencySet, Window};
-pub use scene::{target_bytes, FrameReport, SceneConfig, VirtualScene};
-pub use source::{has_attribute, StoreSource};
+pub use scene::{target_bytes, FrameReport, PickedPoint, SceneConfig, VirtualScene};
+pub use source::{fit_scale, has_attribute, StoreSource};
 
 use thiserror::Error;
 

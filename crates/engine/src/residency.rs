@@ -24,6 +24,8 @@ impl Window {
 pub struct ResidencySet {
     page_size: u32,
     free: Vec<u32>,
+    /// Per slot: the pointlet whose page it holds (u32::MAX when free), for picking.
+    owner: Vec<u32>,
     windows: Vec<Window>,
     dirty: Vec<u32>,
     is_dirty: Vec<bool>,
@@ -35,6 +37,7 @@ impl ResidencySet {
             page_size,
             // Reversed so slots are handed out from 0 upwards (chunk 0 fills first).
             free: (0..slots).rev().collect(),
+            owner: vec![u32::MAX; slots as usize],
             windows: vec![Window::default(); pointlets],
             dirty: Vec::new(),
             is_dirty: vec![false; pointlets],
@@ -77,6 +80,7 @@ impl ResidencySet {
             return w.slots.back().copied();
         }
         let slot = self.free.pop()?;
+        self.owner[slot as usize] = i as u32;
         self.windows[i].slots.push_back(slot);
         self.mark(i);
         Some(slot)
@@ -104,6 +108,7 @@ impl ResidencySet {
         while w.slots.len() > pages {
             if let Some(s) = w.slots.pop_back() {
                 self.free.push(s);
+                self.owner[s as usize] = u32::MAX;
                 freed += 1;
             }
         }
@@ -126,6 +131,7 @@ impl ResidencySet {
             match w.slots.pop_front() {
                 Some(s) => {
                     self.free.push(s);
+                    self.owner[s as usize] = u32::MAX;
                     freed += 1;
                     w.lo += ps;
                 }
@@ -148,7 +154,10 @@ impl ResidencySet {
     pub fn clear(&mut self, i: usize, start: u32) -> u32 {
         let w = &mut self.windows[i];
         let freed = w.slots.len() as u32;
-        self.free.extend(w.slots.drain(..));
+        for s in w.slots.drain(..) {
+            self.owner[s as usize] = u32::MAX;
+            self.free.push(s);
+        }
         let start = (start / self.page_size) * self.page_size;
         if freed > 0 || w.lo != start {
             w.lo = start;
@@ -156,6 +165,17 @@ impl ResidencySet {
             self.mark(i);
         }
         freed
+    }
+
+    /// The pointlet and point index that a point id of the GPU (slot · page size + index in the
+    /// page) names, if that slot holds a page now.
+    pub fn point_of(&self, id: u32) -> Option<(usize, u32)> {
+        let (slot, local) = (id / self.page_size, id % self.page_size);
+        let i = *self.owner.get(slot as usize)?;
+        let w = self.windows.get(i as usize)?;
+        let k = w.slots.iter().position(|s| *s == slot)? as u32;
+        let index = w.lo + k * self.page_size + local;
+        (index < w.hi).then_some((i as usize, index))
     }
 
     /// Pointlets changed since the last call, to publish to the GPU.

@@ -90,6 +90,21 @@ pub struct VirtualScene {
     slots: u32,
     positions: Vec<[f64; 3]>,
     order: Vec<(f64, u32)>,
+    /// Colouring generation: bumped when the user colours by another attribute.
+    epoch: u32,
+    /// Per pointlet: the generation of the colours in its GPU pages.
+    gpu_epoch: Vec<u32>,
+}
+
+/// A point under the cursor, read back from the store: exact coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PickedPoint {
+    pub pointlet: usize,
+    /// Index in the pointlet's stored (shuffled) order.
+    pub index: u32,
+    pub position: [f64; 3],
+    /// View depth of the point.
+    pub depth: f32,
 }
 
 /// Bytes of GPU memory a render target of this size allocates.
@@ -170,7 +185,88 @@ impl VirtualScene {
             config,
             positions: Vec::new(),
             order: Vec::new(),
+            epoch: 0,
+            gpu_epoch: vec![0; n],
         })
+    }
+
+    pub fn color_mode(&self) -> ColorMode {
+        self.cache.source().scale().mode
+    }
+
+    pub fn bucket(&self) -> f64 {
+        self.config.bucket
+    }
+
+    pub fn set_bucket(&mut self, bucket: f64) {
+        self.config.bucket = bucket.max(1.0);
+    }
+
+    /// Colours by another attribute. The RAM cache reloads with the new colours; GPU pages keep
+    /// their positions and get only their colour stream replaced as the new colours arrive.
+    pub fn set_color(&mut self, mode: ColorMode) -> Result<(), EngineError> {
+        if !crate::source::has_attribute(&self.store.header().layout, mode) {
+            return Err(EngineError::Config(format!(
+                "{} has no {} attribute to colour by",
+                self.store.path().display(),
+                mode.name()
+            )));
+        }
+        let scale = crate::source::fit_scale(&self.store, mode)?;
+        self.cache.source().set_scale(scale);
+        self.cache.clear();
+        self.epoch += 1;
+        Ok(())
+    }
+
+    /// The point nearest to `pixel` within `radius` pixels among those drawn for `camera`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn pick(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+        pixel: [u32; 2],
+        radius: u32,
+    ) -> Result<Option<PickedPoint>, EngineError> {
+        let view = PagedView {
+            bucket: self.moving_bucket(),
+            accumulate: false,
+        };
+        let Some(hit) = renderer.pick_paged(
+            ctx,
+            &mut self.paged,
+            camera,
+            settings,
+            &view,
+            target,
+            pixel,
+            radius,
+        )?
+        else {
+            return Ok(None);
+        };
+        let Some((pointlet, index)) = self.residency.point_of(hit.id) else {
+            return Ok(None);
+        };
+        let raw = self.store.read_positions(pointlet, index..index + 1)?;
+        Ok(raw.first().map(|p| PickedPoint {
+            pointlet,
+            index,
+            position: self.quantization.dequantize(*p),
+            depth: hit.depth,
+        }))
+    }
+
+    /// The bucket of a moving frame: the configured one, within what the pool holds.
+    fn moving_bucket(&self) -> f64 {
+        // Asking for more than the pool holds only starves pointlets at random; within it the
+        // LoD shares points out fairly. Half a page per pointlet is lost to rounding.
+        let ps = self.config.page_size as f64;
+        let pool = self.slots as f64 * ps - 0.5 * ps * self.counts.len() as f64;
+        self.config.bucket.min(pool.max(ps))
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -230,13 +326,7 @@ impl VirtualScene {
             let growth = 2f64.powi(self.still_frames.min(60) as i32);
             (self.config.bucket * growth).min(self.total_points as f64 * 1048576.0)
         } else {
-            // Asking for more than the pool holds only starves pointlets at random; within
-            // it the LoD shares points out fairly. Half a page per pointlet is lost to rounding.
-            let pool = self.slots as f64 * self.config.page_size as f64
-                - 0.5 * self.config.page_size as f64 * self.counts.len() as f64;
-            self.config
-                .bucket
-                .min(pool.max(self.config.page_size as f64))
+            self.moving_bucket()
         };
         if let Some(fb) = self.paged.poll_feedback(ctx) {
             self.requested = fb.requested;
@@ -301,7 +391,10 @@ impl VirtualScene {
         let keep: Vec<u32> = (0..n)
             .map(|i| {
                 let w = self.residency.window(i);
-                if w.lo == 0 || accumulate {
+                if self.gpu_epoch[i] != self.epoch {
+                    // Its GPU colours are stale: RAM must bring the window back to recolour it.
+                    w.lo
+                } else if w.lo == 0 || accumulate {
                     w.hi
                 } else {
                     0
@@ -310,33 +403,35 @@ impl VirtualScene {
             .collect();
         self.cache.request_window(&self.requested, &keep);
         // GPU: drawing a moving view needs prefixes, so windows that lost their front while
-        // the camera was still start over. While still, pages already drawn may go — judged
-        // only by feedback of accumulating frames, whose drawn counts never shrink.
-        let drawn_valid = self
-            .accumulating_since
-            .is_some_and(|since| self.feedback_frame >= since);
+        // the camera was still start over.
         for i in 0..n {
             if self.requested[i] > 0 {
                 self.residency.touch(i, frame);
             }
             if !accumulate && self.residency.window(i).lo > 0 {
                 report.pages_evicted += self.residency.clear(i, 0) as u64;
-            } else if accumulate && drawn_valid {
-                report.pages_evicted += self.residency.trim_head(i, self.drawn[i]) as u64;
             }
         }
+        // While still, pages already drawn may go when room is needed — judged only by feedback
+        // of accumulating frames, whose drawn counts never shrink.
+        let drawn_valid = accumulate
+            && self
+                .accumulating_since
+                .is_some_and(|since| self.feedback_frame >= since);
+        let mut budget = self.config.upload_per_frame;
+        self.recolor_stale(ctx, &mut budget, report);
         // Most starved first: the smallest share of its request resident.
         self.order.clear();
         for i in 0..n {
             let w = self.residency.window(i);
             let want = self.requested[i];
             let held = self.cache.held(i);
-            if want > w.hi && held.start <= w.hi && held.end > w.hi {
+            let fresh = self.gpu_epoch[i] == self.epoch;
+            if fresh && want > w.hi && held.start <= w.hi && held.end > w.hi {
                 self.order.push((w.hi as f64 / want as f64, i as u32));
             }
         }
         self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let mut budget = self.config.upload_per_frame;
         let mut victims: Option<Vec<u32>> = None;
         let order = std::mem::take(&mut self.order);
         'pointlets: for (_, i) in &order {
@@ -347,8 +442,8 @@ impl VirtualScene {
                 let slot = match self.residency.slot_for_next(i) {
                     Some(s) => s,
                     None => {
-                        let v = victims.get_or_insert_with(|| self.victims());
-                        if !self.evict_one(v, i, report) {
+                        let v = victims.get_or_insert_with(|| self.victims(drawn_valid));
+                        if !self.evict_one(v, i, drawn_valid, report) {
                             break 'pointlets;
                         }
                         continue;
@@ -386,7 +481,7 @@ impl VirtualScene {
             }
         }
         self.order = order;
-        report.bytes_uploaded =
+        report.bytes_uploaded +=
             report.points_uploaded * self.config.encoding.resident_bytes_per_point();
         for i in self.residency.take_dirty() {
             let w = self.residency.window(i as usize);
@@ -395,15 +490,51 @@ impl VirtualScene {
         }
     }
 
+    /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their
+    /// points with the new colours; only the colour stream is uploaded (4 bytes a point).
+    fn recolor_stale(&mut self, ctx: &GpuContext, budget: &mut u64, report: &mut FrameReport) {
+        let ps = self.config.page_size;
+        for i in 0..self.counts.len() {
+            if self.gpu_epoch[i] == self.epoch {
+                continue;
+            }
+            let w = self.residency.window(i).clone();
+            if w.slots.is_empty() {
+                self.gpu_epoch[i] = self.epoch;
+                continue;
+            }
+            let held = self.cache.held(i);
+            if held.start > w.lo || held.end < w.hi || *budget < w.points() as u64 {
+                continue;
+            }
+            for (k, slot) in w.slots.iter().enumerate() {
+                let start = w.lo + k as u32 * ps;
+                let end = (start + ps).min(w.hi);
+                let paged = &self.paged;
+                self.cache.with_points(i, start..end, |first, _, colors| {
+                    paged.write_colors(ctx, *slot, first, colors);
+                });
+            }
+            *budget -= w.points() as u64;
+            report.bytes_uploaded += w.points() as u64 * 4;
+            self.gpu_epoch[i] = self.epoch;
+        }
+    }
+
     /// Pointlets whose pages may go, best victims last (popped first): not requested, least
-    /// recently used; then those holding more than requested.
-    fn victims(&self) -> Vec<u32> {
+    /// recently used; then those holding more than requested; then (with `drawn_valid`, the
+    /// camera still) those with pages already drawn into the kept framebuffer.
+    fn victims(&self, drawn_valid: bool) -> Vec<u32> {
+        let ps = self.config.page_size;
         let mut v: Vec<(u8, u64, u32)> = self
             .residency
             .windows()
             .iter()
             .enumerate()
-            .filter(|(i, w)| !w.slots.is_empty() && w.hi > self.requested[*i])
+            .filter(|(i, w)| {
+                !w.slots.is_empty()
+                    && (w.hi > self.requested[*i] || (drawn_valid && w.lo + ps <= self.drawn[*i]))
+            })
             .map(|(i, w)| ((self.requested[i] > 0) as u8, w.last_used, i as u32))
             .collect();
         // Popped from the back: unrequested before partly requested, older before newer.
@@ -416,6 +547,7 @@ impl VirtualScene {
         &mut self,
         victims: &mut Vec<u32>,
         needy: usize,
+        drawn_valid: bool,
         report: &mut FrameReport,
     ) -> bool {
         let ps = self.config.page_size;
@@ -423,13 +555,20 @@ impl VirtualScene {
             let v = v as usize;
             let w = self.residency.window(v);
             let keep = self.requested[v];
-            if v == needy || w.slots.is_empty() || w.hi <= keep {
+            if v == needy || w.slots.is_empty() {
                 victims.pop();
                 continue;
             }
-            // Drop the last page (or the part beyond the request, if that is a whole page).
-            let last_page_start = w.lo + (w.slots.len() as u32 - 1) * ps;
-            let freed = self.residency.trim_tail(v, last_page_start.max(keep));
+            let freed = if w.hi > keep {
+                // The last page, or the part beyond the request if that is a whole page.
+                let last_page_start = w.lo + (w.slots.len() as u32 - 1) * ps;
+                self.residency.trim_tail(v, last_page_start.max(keep))
+            } else if drawn_valid && w.lo + ps <= self.drawn[v] {
+                // The first page, already in the kept framebuffer.
+                self.residency.trim_head(v, w.lo + ps)
+            } else {
+                0
+            };
             if freed > 0 {
                 report.pages_evicted += freed as u64;
                 return true;

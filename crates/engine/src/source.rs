@@ -6,11 +6,12 @@ use pointlet_core::{PointBatch, PointLayout};
 use pointlet_store::{Store, StreamKind};
 use pointlet_stream::{PointletData, PointletSource, SourceError};
 use std::ops::Range;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 pub struct StoreSource {
     store: Arc<Store>,
-    scale: ColorScale,
+    /// Swapped when the user colours by another attribute; loaders read it per range.
+    scale: RwLock<ColorScale>,
 }
 
 /// The stream a colour mode reads besides positions (none for elevation).
@@ -36,21 +37,68 @@ pub fn has_attribute(layout: &PointLayout, mode: ColorMode) -> bool {
 }
 
 impl StoreSource {
-    /// Colours by `mode`, with ranges fitted on the store's first pointlet (a uniform sample:
-    /// pointlets are shuffled).
+    /// Colours by `mode`, with ranges fitted by [`fit_scale`].
     pub fn new(store: Arc<Store>, mode: ColorMode) -> Result<Self, pointlet_store::StoreError> {
-        let sample = if store.pointlets().is_empty() {
-            PointBatch::default()
-        } else {
-            store.read_pointlet(0)?
-        };
-        let b = store.header().bounds;
-        let scale = ColorScale::fit(mode, &sample, [b.min[2], b.max[2]]);
-        Ok(Self { store, scale })
+        let scale = fit_scale(&store, mode)?;
+        Ok(Self {
+            store,
+            scale: RwLock::new(scale),
+        })
     }
 
-    pub fn scale(&self) -> &ColorScale {
-        &self.scale
+    pub fn scale(&self) -> ColorScale {
+        match self.scale.read() {
+            Ok(s) => *s,
+            Err(poisoned) => *poisoned.into_inner(),
+        }
+    }
+
+    pub fn set_scale(&self, scale: ColorScale) {
+        match self.scale.write() {
+            Ok(mut s) => *s = scale,
+            Err(poisoned) => *poisoned.into_inner() = scale,
+        }
+    }
+
+    /// Colours of points `range` of pointlet `i` under the current scale, reading only the
+    /// attribute's stream (and positions only for elevation).
+    pub fn colors(&self, i: usize, range: Range<u32>) -> Result<Vec<u32>, SourceError> {
+        let scale = self.scale();
+        let n = (range.end - range.start) as usize;
+        let mut batch = PointBatch::default();
+        match stream_for(scale.mode) {
+            None => {
+                let q = self.store.header().quantization;
+                let positions = self
+                    .store
+                    .read_positions(i, range.clone())
+                    .map_err(|e| self.error(i, &range, e))?;
+                batch.xyz = positions.iter().map(|p| q.dequantize(*p)).collect();
+            }
+            Some(kind) if self.store.header().stream(kind).is_some() => {
+                let mut raw = Vec::new();
+                self.store
+                    .read_stream_raw(kind, i, range.clone(), &mut raw)
+                    .map_err(|e| self.error(i, &range, e))?;
+                fill_column(&mut batch, kind, &raw);
+            }
+            // The store lacks the attribute: every point draws grey.
+            Some(_) => {}
+        }
+        if self
+            .store
+            .header()
+            .stream(StreamKind::Classification)
+            .is_some()
+            && scale.mode != ColorMode::Classification
+        {
+            let mut raw = Vec::new();
+            self.store
+                .read_stream_raw(StreamKind::Classification, i, range.clone(), &mut raw)
+                .map_err(|e| self.error(i, &range, e))?;
+            fill_column(&mut batch, StreamKind::Classification, &raw);
+        }
+        Ok((0..n).map(|k| point_color(&batch, k, &scale)).collect())
     }
 
     fn error(&self, i: usize, range: &Range<u32>, e: impl std::fmt::Display) -> SourceError {
@@ -76,29 +124,23 @@ impl PointletSource for StoreSource {
             .store
             .read_positions(i, range.clone())
             .map_err(|e| self.error(i, &range, e))?;
-        let n = positions.len();
-        let mode = self.scale.mode;
-        let mut batch = PointBatch::default();
-        match stream_for(mode) {
-            None => {
-                let q = self.store.header().quantization;
-                batch.xyz = positions.iter().map(|p| q.dequantize(*p)).collect();
-            }
-            Some(kind) if self.store.header().stream(kind).is_some() => {
-                let mut raw = Vec::new();
-                self.store
-                    .read_stream_raw(kind, i, range.clone(), &mut raw)
-                    .map_err(|e| self.error(i, &range, e))?;
-                fill_column(&mut batch, kind, &raw);
-            }
-            // The store lacks the attribute: every point draws grey.
-            Some(_) => {}
-        }
-        out.attribute
-            .extend((0..n).map(|k| point_color(&batch, k, &self.scale)));
+        let colors = self.colors(i, range)?;
+        out.attribute.extend_from_slice(&colors);
         out.positions.extend_from_slice(&positions);
         Ok(())
     }
+}
+
+/// A colour scale for `mode` fitted on the store's first pointlet (a uniform sample: pointlets
+/// are shuffled).
+pub fn fit_scale(store: &Store, mode: ColorMode) -> Result<ColorScale, pointlet_store::StoreError> {
+    let sample = if store.pointlets().is_empty() {
+        PointBatch::default()
+    } else {
+        store.read_pointlet(0)?
+    };
+    let b = store.header().bounds;
+    Ok(ColorScale::fit(mode, &sample, [b.min[2], b.max[2]]))
 }
 
 /// Decodes one little-endian stream into the matching column of `batch`.

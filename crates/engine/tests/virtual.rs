@@ -201,3 +201,59 @@ fn a_budget_too_small_for_the_tables_is_refused() {
     .expect("refused");
     assert!(err.to_string().contains("VRAM budget"), "{err}");
 }
+
+#[test]
+fn picking_reads_the_point_and_recolouring_replaces_only_colours() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("pick.pointlet");
+    build_store(&path, 60_000);
+    let mut renderer = Renderer::new(&ctx);
+    let mut target = RenderTarget::new(&ctx, W, H).expect("target");
+    let mut scene = VirtualScene::open(&ctx, &path, SceneConfig::default(), (W, H)).expect("open");
+    let cam = Camera::overview(&scene.bounds(), 60.0);
+    let (rgb, _) = converge(&ctx, &mut scene, &mut renderer, &mut target, &cam, 400);
+    // The pixel at the centre shows data; the pick returns a stored point projecting there.
+    let hit = scene
+        .pick(
+            &ctx,
+            &mut renderer,
+            &cam,
+            &settings(),
+            &mut target,
+            [W / 2, H / 2],
+            2,
+        )
+        .expect("pick")
+        .expect("a point near the centre");
+    let (pixel, depth) =
+        pointlet_gpu::reference::project(&cam, W, H, hit.position).expect("in view");
+    let (px, py) = ((pixel as u32 % W) as i64, (pixel as u32 / W) as i64);
+    assert!(
+        (px - (W / 2) as i64).abs() <= 2 && (py - (H / 2) as i64).abs() <= 2,
+        "{px},{py}"
+    );
+    assert!((depth - hit.depth).abs() <= depth * 1e-3);
+    let stored = scene.store().read_pointlet(hit.pointlet).expect("pointlet");
+    assert_eq!(
+        stored.xyz[hit.index as usize], hit.position,
+        "exact stored coordinates"
+    );
+    // Classification colours: the picture changes, then converges again.
+    let before = scene.cache_stats();
+    scene
+        .set_color(ColorMode::Classification)
+        .expect("recolour");
+    let mut moved = cam;
+    moved.eye[2] += 1e-3;
+    scene
+        .frame(&ctx, &mut renderer, &moved, &settings(), &mut target)
+        .expect("frame");
+    let (classes, _) = converge(&ctx, &mut scene, &mut renderer, &mut target, &cam, 400);
+    assert_ne!(rgb, classes);
+    assert!(scene.cache_stats().points_evicted > before.points_evicted);
+    assert!(
+        scene.set_color(ColorMode::GpsTime).is_ok(),
+        "the scene has GPS time"
+    );
+}

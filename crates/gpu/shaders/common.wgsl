@@ -30,6 +30,8 @@ struct Frame {
     // HQS: points within this factor of the closest depth blend (the paper's 1 %).
     blend_factor: f32,
     _pad: u32,
+    // One bit per ASPRS class (the colour's alpha byte): set = hidden.
+    hidden_classes: array<vec4<u32>, 2>,
 }
 
 // One dispatch covers the entries of one point-buffer chunk; their number is read from
@@ -69,8 +71,25 @@ fn project(p: vec3<f32>) -> Hit {
     return Hit(y * frame.size.x + x, bitcast<u32>(c.w));
 }
 
+// True when the class in the colour's alpha byte is switched off.
+fn class_hidden(color: u32) -> bool {
+    let c = color >> 24u;
+    let word = frame.hidden_classes[c >> 7u][(c >> 5u) & 3u];
+    return (word & (1u << (c & 31u))) != 0u;
+}
+
+// Pixel and depth of a fetched point; NO_PIXEL when outside the frustum or its class is hidden.
+fn hit_of(s: Sample) -> Hit {
+    if class_hidden(s.color) {
+        return Hit(NO_PIXEL, 0u);
+    }
+    return project(s.pos);
+}
+
 struct Work {
     valid: bool,
+    // The page slot drawn (global: point ids are slot * PAGE_SIZE + index in the page).
+    slot: u32,
     info: DrawInfo,
     // Index of the page's first point in this dispatch's point buffer.
     base: u32,
@@ -82,9 +101,9 @@ struct Work {
 fn work_for(wg: vec3<u32>, nwg: vec3<u32>) -> Work {
     let k = wg.x + wg.y * nwg.x;
     if k >= entry_counts[dispatch.chunk] {
-        return Work(false, DrawInfo(vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u), 0u, 0u, 0u);
+        return Work(false, 0u, DrawInfo(vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u), 0u, 0u, 0u);
     }
     let e = entries[dispatch.list_offset + k];
-    return Work(true, infos[e.info], (e.slot - dispatch.first_slot) * PAGE_SIZE, e.first,
+    return Work(true, e.slot, infos[e.info], (e.slot - dispatch.first_slot) * PAGE_SIZE, e.first,
                 e.first + e.count);
 }

@@ -1,10 +1,12 @@
 // Point fetch, compact layout (Schütz et al. 2022 style): positions quantized relative to the
-// page's bounding box. Coarse word: 3 × 10 bits plus RGBA8 = 8 bytes per point; pages seen so close
-// that one coarse step exceeds half a pixel also read a fine word (another 3 × 10 bits), so
-// positions carry 20 bits per axis where it is visible and distant pages move only 8 bytes.
+// draw box. Coarse word: 3 × 10 bits, plus the RGBA8 colour (alpha = ASPRS class) = 8 bytes per
+// point; boxes seen so close that one coarse step exceeds half a pixel also read a fine word
+// (another 3 × 10 bits), so positions carry 20 bits per axis where it is visible and distant
+// boxes move only 8 bytes. Colours are their own stream: recolouring uploads only them.
 
-@group(0) @binding(4) var<storage, read> points: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read> coarse: array<u32>;
 @group(0) @binding(5) var<storage, read> fine: array<u32>;
+@group(0) @binding(7) var<storage, read> colors: array<u32>;
 
 struct Sample {
     pos: vec3<f32>,
@@ -16,11 +18,11 @@ fn unpack10(w: u32) -> vec3<u32> {
 }
 
 fn load_point(info: DrawInfo, index: u32) -> Sample {
-    let v = points[index];
+    let c = unpack10(coarse[index]) * 1024u;
     // Without the fine word, a point sits in the middle of its coarse cell.
-    var q = vec3<f32>(unpack10(v.x) * 1024u) + vec3<f32>(512.0);
+    var q = vec3<f32>(c) + vec3<f32>(512.0);
     if (info.flags & 1u) != 0u {
-        q = vec3<f32>(unpack10(v.x) * 1024u + unpack10(fine[index])) + vec3<f32>(0.5);
+        q = vec3<f32>(c + unpack10(fine[index])) + vec3<f32>(0.5);
     }
-    return Sample(info.origin + q * info.step, v.y);
+    return Sample(info.origin + q * info.step, colors[index]);
 }

@@ -5,6 +5,12 @@
 
 override PAGE_SIZE: u32 = 4096u;
 
+// Declared for common.wgsl's hit_of (this module fetches through vertex buffers instead).
+struct Sample {
+    pos: vec3<f32>,
+    color: u32,
+}
+
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) color: vec4<f32>,
@@ -19,7 +25,7 @@ fn entry_of(vi: u32) -> DrawEntry {
 
 fn emit(e: DrawEntry, local: u32, p: vec3<f32>, color: u32) -> VertexOut {
     var out: VertexOut;
-    if local < e.first || local >= e.first + e.count {
+    if local < e.first || local >= e.first + e.count || class_hidden(color) {
         // Unused slot of a partly filled page: outside the clip volume.
         out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0);
         return out;
@@ -38,17 +44,17 @@ fn vs_full16(@builtin(vertex_index) vi: u32, @location(0) local_pos: vec3<f32>,
 }
 
 @vertex
-fn vs_compact8(@builtin(vertex_index) vi: u32, @location(0) packed: vec2<u32>,
-               @location(1) fine_word: u32) -> VertexOut {
+fn vs_compact8(@builtin(vertex_index) vi: u32, @location(0) coarse_word: u32,
+               @location(1) color: u32, @location(2) fine_word: u32) -> VertexOut {
     let e = entry_of(vi);
     let info = infos[e.info];
-    let coarse = vec3<u32>(packed.x & 0x3ffu, (packed.x >> 10u) & 0x3ffu, (packed.x >> 20u) & 0x3ffu);
+    let coarse = vec3<u32>(coarse_word & 0x3ffu, (coarse_word >> 10u) & 0x3ffu, (coarse_word >> 20u) & 0x3ffu);
     let fine = vec3<u32>(fine_word & 0x3ffu, (fine_word >> 10u) & 0x3ffu, (fine_word >> 20u) & 0x3ffu);
     var q = vec3<f32>(coarse * 1024u) + vec3<f32>(512.0);
     if (info.flags & 1u) != 0u {
         q = vec3<f32>(coarse * 1024u + fine) + vec3<f32>(0.5);
     }
-    return emit(e, vi % PAGE_SIZE, info.origin + q * info.step, packed.y);
+    return emit(e, vi % PAGE_SIZE, info.origin + q * info.step, color);
 }
 
 struct FragmentOut {

@@ -16,7 +16,7 @@ fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let hit = project(load_point(w.info, w.base + i).pos);
+        let hit = hit_of(load_point(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }

@@ -23,7 +23,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
         let s = load_point(w.info, w.base + i);
-        let hit = project(s.pos);
+        let hit = hit_of(s);
         if hit.pixel == NO_PIXEL {
             continue;
         }

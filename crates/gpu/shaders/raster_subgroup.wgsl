@@ -34,7 +34,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         var color = 0u;
         if i < w.end {
             let s = load_point(w.info, w.base + i);
-            let hit = project(s.pos);
+            let hit = hit_of(s);
             if hit.pixel != NO_PIXEL {
                 pixel = hit.pixel;
                 inv_depth = ~hit.depth_bits;

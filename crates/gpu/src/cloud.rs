@@ -7,7 +7,7 @@
 
 use crate::context::GpuContext;
 use crate::storage::{
-    check_page_size, compact_step, encode_points, needs_fine, DrawBuffers, GpuDrawEntry,
+    check_page_size, compact_step, encode_positions, needs_fine, DrawBuffers, GpuDrawEntry,
     GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
 use crate::GpuError;
@@ -99,6 +99,11 @@ impl GpuCloud {
             ));
         }
         let n = set.positions.len();
+        if n as u64 >= u32::MAX as u64 - page_size as u64 {
+            return Err(GpuError::InvalidInput(format!(
+                "{n} points: a static cloud holds fewer than 2^32 (use a store: it streams)"
+            )));
+        }
         let ps = page_size as usize;
         let pages: Vec<PageMeta> = set
             .positions
@@ -180,14 +185,15 @@ impl GpuCloud {
             },
         )?;
         // Encode and write runs of whole pages that stay inside one chunk.
-        let slice_pages =
-            (UPLOAD_SLICE_BYTES / (encoding.bytes_per_point() * page_size as u64)).max(1) as u32;
+        let slice_pages = (UPLOAD_SLICE_BYTES
+            / (encoding.resident_bytes_per_point() * page_size as u64))
+            .max(1) as u32;
         let mut first = 0u32;
         while first < page_count {
             let chunk_end = (first / per_chunk + 1) * per_chunk;
             let end = (first + slice_pages).min(page_count).min(chunk_end);
-            let (main, fine) = encode_page_run(set, &pages, first, end, ps, encoding);
-            storage.write(&ctx.queue, first, 0, &main, &fine);
+            let (main, fine, colors) = encode_page_run(set, &pages, first, end, ps, encoding);
+            storage.write(&ctx.queue, first, 0, &main, &fine, &colors);
             // Hand the staged bytes to the GPU before encoding more (bounded staging memory).
             ctx.queue.submit([]);
             ctx.wait()?;
@@ -223,8 +229,42 @@ impl GpuCloud {
         &self.pages
     }
 
+    /// Replaces every colour (same points, same order: e.g. another attribute to colour by);
+    /// only the colour stream is uploaded.
+    pub fn recolor(&self, ctx: &GpuContext, colors: &[u32]) -> Result<(), GpuError> {
+        if colors.len() as u64 != self.points {
+            return Err(GpuError::InvalidInput(format!(
+                "{} colours for {} points",
+                colors.len(),
+                self.points
+            )));
+        }
+        let ps = self.page_size as usize;
+        let slice_pages = (UPLOAD_SLICE_BYTES / (4 * ps as u64)).max(1) as usize;
+        let per_chunk = self.storage.slots_per_chunk as usize;
+        let mut first = 0usize;
+        while first < self.pages.len() {
+            let end = (first + slice_pages)
+                .min(self.pages.len())
+                .min((first / per_chunk + 1) * per_chunk);
+            let padded = page_colors(colors, &self.pages, first as u32, end as u32, ps);
+            self.storage
+                .write_colors(&ctx.queue, first as u32, 0, &padded);
+            ctx.queue.submit([]);
+            first = end;
+        }
+        Ok(())
+    }
+
     /// Writes this frame's camera-relative page origins and the frame uniform.
-    pub fn prepare(&mut self, ctx: &GpuContext, camera: &Camera, width: u32, height: u32) {
+    pub fn prepare(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        size: (u32, u32),
+        hidden_classes: &[u32; 8],
+    ) {
+        let height = size.1;
         let focal_px = 0.5 * height as f64 / (camera.fov_y_deg.to_radians() * 0.5).tan();
         let eye = camera.eye;
         let compact = self.encoding == PointEncoding::Compact8;
@@ -250,17 +290,18 @@ impl GpuCloud {
             ctx.queue
                 .write_buffer(&self.infos, 0, bytemuck::cast_slice(&self.staging));
         }
-        write_frame(ctx, &self.frame_uniform, camera, width, height);
+        write_frame(ctx, &self.frame_uniform, camera, size, hidden_classes);
     }
 }
 
-/// Writes the per-frame uniform: the camera-relative view-projection and the image size.
+/// Writes the per-frame uniform: the camera-relative view-projection, the image size and the
+/// hidden classes.
 pub(crate) fn write_frame(
     ctx: &GpuContext,
     uniform: &wgpu::Buffer,
     camera: &Camera,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
+    hidden_classes: &[u32; 8],
 ) {
     let frame = GpuFrame {
         view_proj: pointlet_core::camera::to_f32(
@@ -269,13 +310,14 @@ pub(crate) fn write_frame(
         size: [width, height],
         blend_factor: 1.01,
         _pad: 0,
+        hidden_classes: *hidden_classes,
     };
     ctx.queue
         .write_buffer(uniform, 0, bytemuck::bytes_of(&frame));
 }
 
-/// Encodes pages `first..end` into whole-page runs of the main and fine streams (unused slots of
-/// a partial page stay zero; shaders skip them by count).
+/// Encodes pages `first..end` into whole-page runs of the position, fine and colour streams
+/// (unused slots of a partial page stay zero; shaders skip them by count).
 fn encode_page_run(
     set: &PointSet,
     pages: &[PageMeta],
@@ -283,8 +325,8 @@ fn encode_page_run(
     end: u32,
     page_size: usize,
     encoding: PointEncoding,
-) -> (Vec<u32>, Vec<u32>) {
-    let words = (encoding.bytes_per_point() / 4) as usize;
+) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let words = (encoding.position_bytes() / 4) as usize;
     let fine_words = if encoding == PointEncoding::Compact8 {
         1
     } else {
@@ -298,9 +340,8 @@ fn encode_page_run(
             let range = start..start + page.count as usize;
             let mut main = Vec::with_capacity(page_size * words);
             let mut fine = Vec::with_capacity(page_size * fine_words);
-            encode_points(
-                &set.positions[range.clone()],
-                &set.colors[range],
+            encode_positions(
+                &set.positions[range],
                 page.origin,
                 page.step(),
                 encoding,
@@ -318,5 +359,28 @@ fn encode_page_run(
         main.extend_from_slice(&m);
         fine.extend_from_slice(&f);
     }
-    (main, fine)
+    (
+        main,
+        fine,
+        page_colors(&set.colors, pages, first, end, page_size),
+    )
+}
+
+/// The colours of pages `first..end`, each page padded to `page_size`.
+fn page_colors(
+    colors: &[u32],
+    pages: &[PageMeta],
+    first: u32,
+    end: u32,
+    page_size: usize,
+) -> Vec<u32> {
+    let mut out = vec![0u32; (end - first) as usize * page_size];
+    out.par_chunks_mut(page_size)
+        .zip(first..end)
+        .for_each(|(page, k)| {
+            let start = k as usize * page_size;
+            let n = pages[k as usize].count as usize;
+            page[..n].copy_from_slice(&colors[start..start + n]);
+        });
+    out
 }

@@ -20,28 +20,17 @@ impl HwPointsPipeline {
             bind_group_layouts: &[Some(&group0)],
             immediate_size: 0,
         });
-        let full16 = [
-            wgpu::VertexAttribute {
-                format: wgpu::VertexFormat::Float32x3,
+        let attribute = |format, shader_location| {
+            [wgpu::VertexAttribute {
+                format,
                 offset: 0,
-                shader_location: 0,
-            },
-            wgpu::VertexAttribute {
-                format: wgpu::VertexFormat::Uint32,
-                offset: 12,
-                shader_location: 1,
-            },
-        ];
-        let packed = [wgpu::VertexAttribute {
-            format: wgpu::VertexFormat::Uint32x2,
-            offset: 0,
-            shader_location: 0,
-        }];
-        let fine = [wgpu::VertexAttribute {
-            format: wgpu::VertexFormat::Uint32,
-            offset: 0,
-            shader_location: 1,
-        }];
+                shader_location,
+            }]
+        };
+        let position = attribute(wgpu::VertexFormat::Float32x3, 0);
+        let coarse = attribute(wgpu::VertexFormat::Uint32, 0);
+        let color = attribute(wgpu::VertexFormat::Uint32, 1);
+        let fine = attribute(wgpu::VertexFormat::Uint32, 2);
         let vertex = |stride, attributes| {
             Some(wgpu::VertexBufferLayout {
                 array_stride: stride,
@@ -50,10 +39,17 @@ impl HwPointsPipeline {
             })
         };
         let (entry, buffers) = match encoding {
-            PointEncoding::Full16 => ("vs_full16", vec![vertex(16, &full16[..])]),
+            PointEncoding::Full16 => (
+                "vs_full16",
+                vec![vertex(12, &position[..]), vertex(4, &color[..])],
+            ),
             PointEncoding::Compact8 => (
                 "vs_compact8",
-                vec![vertex(8, &packed[..]), vertex(4, &fine[..])],
+                vec![
+                    vertex(4, &coarse[..]),
+                    vertex(4, &color[..]),
+                    vertex(4, &fine[..]),
+                ],
             ),
         };
         let constants = [("PAGE_SIZE", page_size as f64)];
@@ -132,9 +128,10 @@ impl HwPointsPipeline {
         pass.set_pipeline(&self.pipeline);
         for chunk in &cloud.storage.chunks {
             pass.set_bind_group(0, &chunk.bind_group, &[]);
-            pass.set_vertex_buffer(0, chunk.points.slice(..));
+            pass.set_vertex_buffer(0, chunk.positions.slice(..));
+            pass.set_vertex_buffer(1, chunk.colors.slice(..));
             if let Some(f) = &chunk.fine {
-                pass.set_vertex_buffer(1, f.slice(..));
+                pass.set_vertex_buffer(2, f.slice(..));
             }
             pass.draw(0..chunk.slots * cloud.page_size, 0..1);
         }

@@ -7,6 +7,7 @@ mod cloud;
 mod context;
 mod hw_points;
 mod paged;
+mod pick;
 mod raster;
 pub mod reference;
 mod renderer;
@@ -19,11 +20,12 @@ pub use bandwidth::copy_bandwidth;
 pub use cloud::{GpuCloud, PageMeta, PointSet};
 pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
 pub use paged::{gammas, LodFeedback, PagedCloud, PagedView, PointletDesc};
+pub use pick::PickHit;
 pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use screen::{EdlSettings, ScreenSettings};
 pub use storage::{
-    compact_step, decode_compact, encode_points, needs_fine, quantize_compact, PointEncoding,
+    compact_step, decode_compact, encode_positions, needs_fine, quantize_compact, PointEncoding,
     COMPACT_STEPS,
 };
 pub use target::RenderTarget;

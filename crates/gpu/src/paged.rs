@@ -6,8 +6,8 @@
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
 use crate::storage::{
-    compact_step, encode_points, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding,
-    PointStorage,
+    compact_step, encode_positions, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame,
+    PointEncoding, PointStorage,
 };
 use crate::{shaders, GpuError};
 use bytemuck::{Pod, Zeroable};
@@ -178,7 +178,8 @@ impl PagedCloud {
                 "every pointlet needs a finite bounding box".into(),
             ));
         }
-        let slots = slots.max(1);
+        // Pick ids are slot · page size + index: keep them within 32 bits.
+        let slots = slots.clamp(1, u32::MAX / page_size.max(1));
         let n = pointlets.len() as u32;
         let max_pages = Self::max_pages_for(&pointlets, page_size);
         let device = &ctx.device;
@@ -415,17 +416,28 @@ impl PagedCloud {
         let (main, fine) = &mut self.scratch;
         main.clear();
         fine.clear();
-        encode_points(
+        encode_positions(
             positions,
-            colors,
             desc.aabb.min,
             compact_step(desc.aabb.extent()),
             self.encoding,
             main,
             fine,
         );
+        self.storage.write(
+            &ctx.queue,
+            slot,
+            first_point % self.page_size,
+            main,
+            fine,
+            colors,
+        );
+    }
+
+    /// Replaces the colours of points `first_point..` in `slot` (recolouring: positions stay).
+    pub fn write_colors(&self, ctx: &GpuContext, slot: u32, first_point: u32, colors: &[u32]) {
         self.storage
-            .write(&ctx.queue, slot, first_point % self.page_size, main, fine);
+            .write_colors(&ctx.queue, slot, first_point % self.page_size, colors);
     }
 
     /// Publishes that points `lo..hi` of `pointlet` are resident, page j (from lo / page size)
@@ -445,6 +457,7 @@ impl PagedCloud {
     }
 
     /// Records the LoD and draw-list passes of a frame (and the copy of the requests).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn record_lod(
         &mut self,
         ctx: &GpuContext,
@@ -452,9 +465,16 @@ impl PagedCloud {
         camera: &Camera,
         (width, height): (u32, u32),
         view: &PagedView,
+        hidden_classes: &[u32; 8],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        write_frame(ctx, &self.frame_uniform, camera, width, height);
+        write_frame(
+            ctx,
+            &self.frame_uniform,
+            camera,
+            (width, height),
+            hidden_classes,
+        );
         let eye = camera.eye.map(split);
         let params = LodParams {
             view_proj: pointlet_core::camera::to_f32(

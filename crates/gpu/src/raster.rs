@@ -332,6 +332,46 @@ impl RasterPipelines {
     }
 }
 
+impl RasterPipelines {
+    /// The pick passes: closest depth, then the id of the closest point per pixel (32-bit
+    /// atomics only, so picking works on every adapter).
+    pub fn pick(device: &wgpu::Device, encoding: PointEncoding, page_size: u32) -> Self {
+        let mut p = Self::new(device, RasterVariant::AtomicMin32, encoding, page_size);
+        let group0 = point_group_layout(device, encoding);
+        let source = shaders::point_pass(encoding, shaders::RASTER_MIN32);
+        let module = shaders::module(device, "pick", &source);
+        let group1_layout = storage_layout(device, 2, false);
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("pick"),
+            bind_group_layouts: &[Some(&group0), Some(&group1_layout)],
+            immediate_size: 0,
+        });
+        let constants = [
+            ("WG", WORKGROUP as f64),
+            ("PAGE_SIZE", page_size as f64),
+            ("PICK", 1.0),
+        ];
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("pick"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("color_pass"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        p.stages.truncate(1);
+        p.stages.push(PointStage {
+            pipeline,
+            buffers: vec![0, 1],
+            group1_layout,
+        });
+        p
+    }
+}
+
 /// How many workgroups each chunk's dispatch gets: one per slot (static clouds list every
 /// page), or the counts the LoD pass wrote (three u32 per chunk).
 #[derive(Clone, Copy)]

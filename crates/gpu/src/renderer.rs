@@ -17,6 +17,8 @@ use std::collections::HashMap;
 pub struct RenderSettings {
     pub variant: RasterVariant,
     pub screen: ScreenSettings,
+    /// One bit per ASPRS class (class c is bit c % 32 of word c / 32): set = not drawn.
+    pub hidden_classes: [u32; 8],
 }
 
 impl Default for RenderSettings {
@@ -24,7 +26,23 @@ impl Default for RenderSettings {
         Self {
             variant: RasterVariant::ReduceEarlyZ,
             screen: ScreenSettings::default(),
+            hidden_classes: [0; 8],
         }
+    }
+}
+
+impl RenderSettings {
+    pub fn set_class_hidden(&mut self, class: u8, hidden: bool) {
+        let (w, b) = ((class / 32) as usize, class % 32);
+        if hidden {
+            self.hidden_classes[w] |= 1 << b;
+        } else {
+            self.hidden_classes[w] &= !(1 << b);
+        }
+    }
+
+    pub fn class_hidden(&self, class: u8) -> bool {
+        self.hidden_classes[(class / 32) as usize] & (1 << (class % 32)) != 0
     }
 }
 
@@ -40,6 +58,7 @@ pub struct FrameTiming {
 pub struct Renderer {
     raster: HashMap<(RasterVariant, PointEncoding, u32), RasterPipelines>,
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
+    pub(crate) pick: HashMap<(PointEncoding, u32), RasterPipelines>,
     screen: ScreenPasses,
     last_had_lod: bool,
 }
@@ -51,12 +70,17 @@ impl Renderer {
         Self {
             raster: HashMap::new(),
             hw: HashMap::new(),
+            pick: HashMap::new(),
             screen: ScreenPasses::new(&ctx.device),
             last_had_lod: false,
         }
     }
 
-    fn check(ctx: &GpuContext, variant: RasterVariant, camera: &Camera) -> Result<(), GpuError> {
+    pub(crate) fn check(
+        ctx: &GpuContext,
+        variant: RasterVariant,
+        camera: &Camera,
+    ) -> Result<(), GpuError> {
         if let Some(why) = variant.unsupported_reason(&ctx.caps) {
             return Err(GpuError::Unsupported {
                 what: variant.name().to_string(),
@@ -106,7 +130,12 @@ impl Renderer {
         let variant = settings.variant;
         Self::check(ctx, variant, camera)?;
         self.ensure_pipelines(ctx, variant, cloud.encoding, cloud.page_size)?;
-        cloud.prepare(ctx, camera, target.width, target.height);
+        cloud.prepare(
+            ctx,
+            camera,
+            (target.width, target.height),
+            &settings.hidden_classes,
+        );
         self.screen.prepare(&ctx.queue, target, &settings.screen);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let timer = target.timer.as_ref();
@@ -186,6 +215,7 @@ impl Renderer {
             camera,
             (target.width, target.height),
             &view,
+            &settings.hidden_classes,
             stamps(0),
         );
         self.record_raster(

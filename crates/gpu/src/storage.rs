@@ -29,11 +29,17 @@ impl PointEncoding {
         Self::ALL.into_iter().find(|e| e.name() == s)
     }
 
-    /// Bytes of the main stream per point (the fine stream of Compact8 is extra, when read).
+    /// Bytes a point costs to draw: position + colour (the fine word of Compact8 is extra,
+    /// read only where needed).
     pub fn bytes_per_point(self) -> u64 {
+        self.position_bytes() + 4
+    }
+
+    /// Bytes of the position stream per point.
+    pub fn position_bytes(self) -> u64 {
         match self {
-            PointEncoding::Full16 => 16,
-            PointEncoding::Compact8 => 8,
+            PointEncoding::Full16 => 12,
+            PointEncoding::Compact8 => 4,
         }
     }
 
@@ -86,11 +92,11 @@ pub fn needs_fine(origin: [f64; 3], extent: [f64; 3], eye: [f64; 3], focal_px: f
     cell * focal_px > 0.5 * d2.sqrt()
 }
 
-/// Encodes points into the main stream (u32 words, 4 or 2 per point) and, for Compact8, the
-/// fine stream, relative to a box `origin` (and its compact `step`).
-pub fn encode_points(
+/// Encodes positions into the position stream (u32 words: 3 per point for Full16, 1 for
+/// Compact8) and, for Compact8, the fine stream, relative to a box `origin` (and its compact
+/// `step`). Colours need no encoding: they are uploaded as they are.
+pub fn encode_positions(
     positions: &[[f64; 3]],
-    colors: &[u32],
     origin: [f64; 3],
     step: [f64; 3],
     encoding: PointEncoding,
@@ -99,16 +105,14 @@ pub fn encode_points(
 ) {
     match encoding {
         PointEncoding::Full16 => {
-            for (p, c) in positions.iter().zip(colors) {
+            for p in positions {
                 main.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
-                main.push(*c);
             }
         }
         PointEncoding::Compact8 => {
-            for (p, c) in positions.iter().zip(colors) {
+            for p in positions {
                 let q = quantize_compact(*p, origin, step);
                 main.push((q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20);
-                main.push(*c);
                 fine.push((q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20);
             }
         }
@@ -140,6 +144,7 @@ pub(crate) struct GpuFrame {
     pub size: [u32; 2],
     pub blend_factor: f32,
     pub _pad: u32,
+    pub hidden_classes: [u32; 8],
 }
 
 #[repr(C)]
@@ -185,6 +190,7 @@ pub(crate) fn point_group_layout(
         uniform(3, both),
         storage(4, wgpu::ShaderStages::COMPUTE),
         storage(6, wgpu::ShaderStages::COMPUTE),
+        storage(7, wgpu::ShaderStages::COMPUTE),
     ];
     if encoding == PointEncoding::Compact8 {
         entries.push(storage(5, wgpu::ShaderStages::COMPUTE));
@@ -195,9 +201,10 @@ pub(crate) fn point_group_layout(
     })
 }
 
-/// One point buffer (≤ the binding limit) and the slots it holds.
+/// The point buffers of a range of slots (each ≤ the binding limit).
 pub(crate) struct PointChunk {
-    pub points: wgpu::Buffer,
+    pub positions: wgpu::Buffer,
+    pub colors: wgpu::Buffer,
     pub fine: Option<wgpu::Buffer>,
     pub first_slot: u32,
     pub slots: u32,
@@ -236,7 +243,8 @@ pub(crate) fn check_page_size(page_size: u32) -> Result<(), GpuError> {
 impl PointStorage {
     /// How many slots one chunk buffer holds on this device.
     pub fn slots_per_chunk(ctx: &GpuContext, encoding: PointEncoding, page_size: u32) -> u32 {
-        let page_bytes = encoding.bytes_per_point() * page_size as u64;
+        // The position stream is the largest per point: it decides how many slots fit.
+        let page_bytes = encoding.position_bytes() * page_size as u64;
         let max = ctx.caps.max_binding.min(ctx.caps.max_buffer);
         (max / page_bytes).clamp(1, u32::MAX as u64 / page_size as u64) as u32
     }
@@ -251,7 +259,7 @@ impl PointStorage {
         check_page_size(page_size)?;
         let device = &ctx.device;
         let slots_per_chunk = Self::slots_per_chunk(ctx, encoding, page_size);
-        let page_bytes = encoding.bytes_per_point() * page_size as u64;
+        let page_bytes = encoding.position_bytes() * page_size as u64;
         if page_bytes > ctx.caps.max_binding.min(ctx.caps.max_buffer) {
             return Err(GpuError::InvalidInput(format!(
                 "a page of {page_size} points ({page_bytes} bytes) exceeds the binding limit"
@@ -276,7 +284,8 @@ impl PointStorage {
                     })
                 })
             };
-            let points = alloc("points", slots as u64 * page_bytes)?;
+            let positions = alloc("positions", slots as u64 * page_bytes)?;
+            let colors = alloc("colours", slots as u64 * page_size as u64 * 4)?;
             let fine = match encoding {
                 PointEncoding::Full16 => None,
                 PointEncoding::Compact8 => Some(alloc(
@@ -303,8 +312,9 @@ impl PointStorage {
                 entry(1, draw.infos),
                 entry(2, draw.entries),
                 entry(3, &dispatch_buffer),
-                entry(4, &points),
+                entry(4, &positions),
                 entry(6, draw.entry_counts),
+                entry(7, &colors),
             ];
             if let Some(f) = &fine {
                 entries.push(entry(5, f));
@@ -315,7 +325,8 @@ impl PointStorage {
                 entries: &entries,
             });
             chunks.push(PointChunk {
-                points,
+                positions,
+                colors,
                 fine,
                 first_slot,
                 slots,
@@ -344,20 +355,41 @@ impl PointStorage {
             .div_ceil(Self::slots_per_chunk(ctx, encoding, page_size))
     }
 
-    /// Writes encoded points into `slot` starting at point `first` of the slot.
-    pub fn write(&self, queue: &wgpu::Queue, slot: u32, first: u32, main: &[u32], fine: &[u32]) {
-        let c = (slot / self.slots_per_chunk) as usize;
-        let Some(chunk) = self.chunks.get(c) else {
+    /// The chunk holding `slot` and the index of the slot's point `first` in its buffers.
+    fn locate(&self, slot: u32, first: u32) -> Option<(&PointChunk, u64)> {
+        let chunk = self.chunks.get((slot / self.slots_per_chunk) as usize)?;
+        let point = (slot - chunk.first_slot) as u64 * self.page_size as u64 + first as u64;
+        Some((chunk, point))
+    }
+
+    /// Writes encoded positions (and fine words) and colours into `slot` from its point `first`.
+    pub fn write(
+        &self,
+        queue: &wgpu::Queue,
+        slot: u32,
+        first: u32,
+        positions: &[u32],
+        fine: &[u32],
+        colors: &[u32],
+    ) {
+        let Some((chunk, point)) = self.locate(slot, first) else {
             return;
         };
-        let point = (slot - chunk.first_slot) as u64 * self.page_size as u64 + first as u64;
         queue.write_buffer(
-            &chunk.points,
-            point * self.encoding.bytes_per_point(),
-            bytemuck::cast_slice(main),
+            &chunk.positions,
+            point * self.encoding.position_bytes(),
+            bytemuck::cast_slice(positions),
         );
         if let Some(f) = &chunk.fine {
             queue.write_buffer(f, point * 4, bytemuck::cast_slice(fine));
+        }
+        self.write_colors(queue, slot, first, colors);
+    }
+
+    /// Replaces the colours of `slot` from its point `first` (recolouring touches nothing else).
+    pub fn write_colors(&self, queue: &wgpu::Queue, slot: u32, first: u32, colors: &[u32]) {
+        if let Some((chunk, point)) = self.locate(slot, first) {
+            queue.write_buffer(&chunk.colors, point * 4, bytemuck::cast_slice(colors));
         }
     }
 
@@ -365,7 +397,7 @@ impl PointStorage {
     pub fn bytes(&self) -> u64 {
         self.chunks
             .iter()
-            .map(|c| c.points.size() + c.fine.as_ref().map_or(0, |f| f.size()))
+            .map(|c| c.positions.size() + c.colors.size() + c.fine.as_ref().map_or(0, |f| f.size()))
             .sum()
     }
 }

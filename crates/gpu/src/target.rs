@@ -65,7 +65,9 @@ impl RenderTarget {
                 device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(label),
                     size: px * bytes_per_pixel,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_DST
+                        | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 })
             })

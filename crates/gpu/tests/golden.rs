@@ -259,3 +259,84 @@ fn without_64_bit_atomics_the_two_pass_path_draws_the_same_image() {
     );
     assert_eq!(diff(&got, &expected), (0, 0));
 }
+
+#[test]
+fn hidden_classes_are_not_drawn() {
+    let ctx = context();
+    let mut scene = layered_scene(8, false);
+    // Classes 2 and 6 (ground, building) in the alpha byte of every other point.
+    for (k, c) in scene.set.colors.iter_mut().enumerate() {
+        *c = (*c & 0x00ff_ffff) | if k % 2 == 0 { 2 << 24 } else { 6 << 24 };
+    }
+    let mut settings = pointlet_gpu::RenderSettings {
+        variant: RasterVariant::EarlyZ,
+        ..Default::default()
+    };
+    settings.set_class_hidden(6, true);
+    assert!(settings.class_hidden(6) && !settings.class_hidden(2));
+    let kept: Vec<usize> = (0..scene.set.len()).filter(|k| k % 2 == 0).collect();
+    let positions: Vec<[f64; 3]> = kept.iter().map(|k| scene.set.positions[*k]).collect();
+    let colors: Vec<u32> = kept.iter().map(|k| scene.set.colors[*k]).collect();
+    let expected = closest_reference(&positions, &colors);
+    let mut cloud = pointlet_gpu::GpuCloud::upload(&ctx, &scene.set, PointEncoding::Full16, 256)
+        .expect("upload");
+    let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+    renderer
+        .render(&ctx, &mut cloud, &camera(), &settings, &mut target)
+        .expect("render");
+    let got = target.read_rgba(&ctx).expect("readback");
+    assert_eq!(diff(&got, &expected), (0, 0));
+}
+
+#[test]
+fn picking_returns_the_closest_point_under_the_cursor() {
+    let ctx = context();
+    let scene = layered_scene(9, false);
+    let cam = camera();
+    let px = reference::closest_points(&scene.set.positions, &scene.set.colors, &cam, W, H);
+    let mut cloud = pointlet_gpu::GpuCloud::upload(&ctx, &scene.set, PointEncoding::Compact8, 256)
+        .expect("upload");
+    let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+    let settings = pointlet_gpu::RenderSettings::default();
+    let mut checked = 0;
+    for k in (0..W * H).step_by(97) {
+        let (x, y) = (k % W, k / W);
+        let hit = renderer
+            .pick(&ctx, &mut cloud, &cam, &settings, &mut target, [x, y], 0)
+            .expect("pick");
+        let i = (y * W + x) as usize;
+        match (hit, px[i]) {
+            (Some(h), Some((depth, _))) => {
+                let p = scene.set.positions[h.id as usize];
+                let (j, d) = reference::project(&cam, W, H, p).expect("visible");
+                assert_eq!(j, i, "the picked point lies under the cursor");
+                assert!(
+                    (d - depth).abs() <= depth * 1e-3,
+                    "and is the closest: {d} vs {depth}"
+                );
+                checked += 1;
+            }
+            (None, None) => {}
+            (h, r) => panic!("pixel ({x},{y}): GPU {h:?}, reference {r:?}"),
+        }
+    }
+    assert!(checked >= 10, "{checked}");
+    // With a radius, an empty pixel next to points still finds one.
+    let empty = (0..W * H)
+        .find(|i| px[*i as usize].is_none())
+        .expect("an empty pixel");
+    let hit = renderer
+        .pick(
+            &ctx,
+            &mut cloud,
+            &cam,
+            &settings,
+            &mut target,
+            [empty % W, empty / W],
+            3,
+        )
+        .expect("pick");
+    assert!(hit.is_some_and(|h| h.pixel != [empty % W, empty / W]));
+}

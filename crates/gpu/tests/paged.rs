@@ -73,6 +73,7 @@ fn frame(
             &RenderSettings {
                 variant,
                 screen: ScreenSettings::default(),
+                ..Default::default()
             },
             &view,
             target,
@@ -257,4 +258,43 @@ fn accumulation_converges_to_the_full_detail_image() {
         );
     }
     assert_eq!(diff(&last, &full), (0, 0));
+}
+
+#[test]
+fn dbg_pick_paged() {
+    let ctx = context();
+    let scene = layered_scene(6, true);
+    let k = 1000;
+    let descs = pointlets(&scene.set, k);
+    let slots = slots_needed(&scene.set, k, 256);
+    let mut paged = PagedCloud::new(&ctx, descs, PointEncoding::Full16, 256, slots).expect("paged");
+    make_resident(&ctx, &mut paged, &scene.set, k);
+    let mut target = RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = Renderer::new(&ctx);
+    let view = PagedView {
+        bucket: 1e12,
+        accumulate: false,
+    };
+    let mut n = 0;
+    for y in 0..H {
+        for x in 0..W {
+            if renderer
+                .pick_paged(
+                    &ctx,
+                    &mut paged,
+                    &camera(),
+                    &RenderSettings::default(),
+                    &view,
+                    &mut target,
+                    [x, y],
+                    0,
+                )
+                .unwrap()
+                .is_some()
+            {
+                n += 1;
+            }
+        }
+    }
+    eprintln!("paged picked {n}");
 }

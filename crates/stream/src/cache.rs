@@ -267,6 +267,28 @@ impl<S: PointletSource> RamCache<S> {
             .and_then(|mut e| e.take())
     }
 
+    /// The source the loaders read from (e.g. to change what it computes per point).
+    pub fn source(&self) -> &S {
+        &self.shared.source
+    }
+
+    /// Drops every held point (after the source changed what it delivers). Waits for tasks in
+    /// flight so none adds stale points afterwards; loads restart with the next request.
+    pub fn clear(&mut self) {
+        self.wait_idle();
+        let sh = &self.shared;
+        for (i, slot) in sh.slots.iter().enumerate() {
+            if let Ok(mut s) = slot.lock() {
+                let freed = s.len() as u64;
+                *s = PointletData::default();
+                sh.loaded[i].store(0, Release);
+                sh.held_from[i].store(0, Release);
+                sh.ram_used.fetch_sub(freed * BYTES_PER_POINT, AcqRel);
+                sh.points_evicted.fetch_add(freed, Relaxed);
+            }
+        }
+    }
+
     /// True when no task is queued or running (for tests and benchmarks).
     pub fn is_idle(&self) -> bool {
         self.shared.queued.load(Acquire) == 0 && self.shared.in_flight.load(Acquire) == 0

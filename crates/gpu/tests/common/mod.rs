@@ -115,7 +115,11 @@ pub fn render(
             ctx,
             &mut cloud,
             cam,
-            &RenderSettings { variant, screen },
+            &RenderSettings {
+                variant,
+                screen,
+                ..Default::default()
+            },
             &mut target,
         )
         .expect("render");

@@ -1,0 +1,195 @@
+//! Picking: which point is under a pixel. The scene is drawn once more with point ids in place
+//! of colours (32-bit passes, every adapter), and the pixels around the cursor are read back:
+//! the answer is a point, not a pixel colour, so measurements use real coordinates.
+
+use crate::cloud::GpuCloud;
+use crate::context::GpuContext;
+use crate::paged::{PagedCloud, PagedView};
+use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
+use crate::renderer::{RenderSettings, Renderer};
+use crate::storage::PointStorage;
+use crate::target::{map_read, RenderTarget};
+use crate::GpuError;
+use pointlet_core::Camera;
+use std::collections::hash_map::Entry;
+
+/// The point found: its id (static clouds: the index in upload order; paged clouds: page slot
+/// × page size + index in the page), its view depth and the pixel it covers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PickHit {
+    pub id: u32,
+    pub depth: f32,
+    pub pixel: [u32; 2],
+}
+
+impl Renderer {
+    /// The point of a static cloud nearest to `pixel` on screen within `radius` pixels (the
+    /// closer one on a tie), drawn as `settings` hides classes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn pick(
+        &mut self,
+        ctx: &GpuContext,
+        cloud: &mut GpuCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+        pixel: [u32; 2],
+        radius: u32,
+    ) -> Result<Option<PickHit>, GpuError> {
+        Self::check(ctx, RasterVariant::AtomicMin32, camera)?;
+        cloud.prepare(
+            ctx,
+            camera,
+            (target.width, target.height),
+            &settings.hidden_classes,
+        );
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.record_pick(
+            ctx,
+            &mut enc,
+            cloud.encoding,
+            cloud.page_size,
+            &cloud.storage,
+            RasterDispatch::Direct,
+            target,
+        )?;
+        ctx.checked("picking", || ctx.queue.submit([enc.finish()]))?;
+        read_pick(ctx, target, pixel, radius)
+    }
+
+    /// Like [`pick`](Self::pick) for a paged cloud: the LoD picks the points (as a moving
+    /// frame with `view.bucket`) and ids name page slots.
+    #[allow(clippy::too_many_arguments)]
+    pub fn pick_paged(
+        &mut self,
+        ctx: &GpuContext,
+        paged: &mut PagedCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        view: &PagedView,
+        target: &mut RenderTarget,
+        pixel: [u32; 2],
+        radius: u32,
+    ) -> Result<Option<PickHit>, GpuError> {
+        Self::check(ctx, RasterVariant::AtomicMin32, camera)?;
+        let view = PagedView {
+            accumulate: false,
+            ..*view
+        };
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        paged.record_lod(
+            ctx,
+            &mut enc,
+            camera,
+            (target.width, target.height),
+            &view,
+            &settings.hidden_classes,
+            None,
+        );
+        let (encoding, page_size) = (paged.encoding, paged.page_size);
+        self.record_pick(
+            ctx,
+            &mut enc,
+            encoding,
+            page_size,
+            &paged.storage,
+            RasterDispatch::Indirect(&paged.indirect),
+            target,
+        )?;
+        ctx.checked("picking", || ctx.queue.submit([enc.finish()]))?;
+        paged.after_submit();
+        read_pick(ctx, target, pixel, radius)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record_pick(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        encoding: crate::storage::PointEncoding,
+        page_size: u32,
+        storage: &PointStorage,
+        dispatch: RasterDispatch<'_>,
+        target: &RenderTarget,
+    ) -> Result<(), GpuError> {
+        if let Entry::Vacant(slot) = self.pick.entry((encoding, page_size)) {
+            slot.insert(ctx.checked("building the pick passes", || {
+                RasterPipelines::pick(&ctx.device, encoding, page_size)
+            })?);
+        }
+        let Some(pipes) = self.pick.get(&(encoding, page_size)) else {
+            return Ok(());
+        };
+        let buffers = [&target.pixels.depth32, &target.pixels.color32];
+        for b in buffers {
+            enc.clear_buffer(b, 0, None);
+        }
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("pick"),
+            timestamp_writes: None,
+        });
+        pipes.record(&ctx.device, &mut pass, storage, dispatch, &buffers);
+        Ok(())
+    }
+}
+
+/// Reads the rows around `pixel` and picks the nearest covered pixel within `radius`.
+fn read_pick(
+    ctx: &GpuContext,
+    target: &RenderTarget,
+    pixel: [u32; 2],
+    radius: u32,
+) -> Result<Option<PickHit>, GpuError> {
+    let (w, h) = (target.width, target.height);
+    if pixel[0] >= w || pixel[1] >= h {
+        return Ok(None);
+    }
+    let y0 = pixel[1].saturating_sub(radius);
+    let y1 = (pixel[1] + radius).min(h - 1);
+    let offset = y0 as u64 * w as u64 * 4;
+    let size = (y1 - y0 + 1) as u64 * w as u64 * 4;
+    let readback = |label| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    };
+    let (depth_rb, id_rb) = (readback("pick depth"), readback("pick ids"));
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(&target.pixels.depth32, offset, &depth_rb, 0, size);
+    enc.copy_buffer_to_buffer(&target.pixels.color32, offset, &id_rb, 0, size);
+    ctx.checked("reading the pick", || ctx.queue.submit([enc.finish()]))?;
+    let depth: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &depth_rb)?);
+    let ids: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &id_rb)?);
+    let mut best: Option<(u64, f32, PickHit)> = None;
+    for y in y0..=y1 {
+        for x in pixel[0].saturating_sub(radius)..=(pixel[0] + radius).min(w - 1) {
+            let k = ((y - y0) * w + x) as usize;
+            let (Some(d), Some(id)) = (depth.get(k), ids.get(k)) else {
+                continue;
+            };
+            if *d == 0 {
+                continue;
+            }
+            let dist = (x.abs_diff(pixel[0]) as u64).pow(2) + (y.abs_diff(pixel[1]) as u64).pow(2);
+            if dist > (radius as u64).pow(2) {
+                continue;
+            }
+            let z = f32::from_bits(!*d);
+            let hit = PickHit {
+                id: !*id,
+                depth: z,
+                pixel: [x, y],
+            };
+            if best
+                .as_ref()
+                .is_none_or(|(bd, bz, _)| (dist, z) < (*bd, *bz))
+            {
+                best = Some((dist, z, hit));
+            }
+        }
+    }
+    Ok(best.map(|(_, _, h)| h))
+}
