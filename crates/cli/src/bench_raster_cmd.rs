@@ -1,7 +1,7 @@
 //! `pointlet bench-raster`: every rasterizer × vertex order × encoding × view, timed with GPU
 //! timestamp queries, beside a copy kernel measured in the same process (the paper's Table 1).
 
-use crate::render_cmd::{open_gpu, reorder};
+use crate::render_cmd::reorder;
 use crate::view_args::{parse_encoding, parse_order, parse_variant};
 use anyhow::{bail, Context, Result};
 use pointlet_core::color::ColorMode;
@@ -78,20 +78,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let draw = crate::view_args::DrawArgs {
-        raster: RasterVariant::AtomicMin,
-        encoding: PointEncoding::Full16,
-        order: VertexOrder::Original,
-        color: ColorMode::Rgb,
-        edl: false,
-        edl_strength: 1.0,
-        edl_radius: 1.4,
-        fill: 0,
-        background: [0.0, 0.0, 0.0, 1.0],
-        adapter: args.adapter.clone(),
-        page_size: args.page_size,
-    };
-    let (ctx, _) = open_gpu(&draw)?;
+    let ctx = crate::render_cmd::open_adapter(&args.adapter)?;
     if !ctx.caps.timestamps {
         bail!(
             "{} has no timestamp queries: cannot time GPU passes",
@@ -156,7 +143,7 @@ pub fn run(args: Args) -> Result<()> {
                     for frame in 0..args.frames + 2 {
                         renderer.render(&ctx, &mut cloud, camera, &settings, &mut target)?;
                         let t = renderer
-                            .timing(&ctx, &target)?
+                            .timing(&ctx, &mut target)?
                             .context("timestamps vanished")?;
                         if frame >= 2 {
                             times.push(t.raster_ms);

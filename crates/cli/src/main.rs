@@ -1,6 +1,7 @@
 //! `pointlet`: the command-line front end. Thin by design: it parses arguments and wires the
 //! crates' stages together (io → store → gpu); every real decision lives in a library crate.
 
+mod bench_cmd;
 mod bench_raster_cmd;
 mod bench_read_cmd;
 mod convert_cmd;
@@ -45,6 +46,8 @@ enum Command {
     Render(render_cmd::Args),
     /// Time every rasterizer × vertex order × encoding against a copy kernel (paper Table 1).
     BenchRaster(bench_raster_cmd::Args),
+    /// Fly a store along a camera path: FPS statistics, stage breakdown, memory; or --quality.
+    Bench(bench_cmd::Args),
     /// Only decode inputs and report points/s (the baseline for `convert`).
     BenchRead(bench_read_cmd::Args),
 }
@@ -59,6 +62,7 @@ fn main() -> ExitCode {
         Command::Metrics(a) => metrics_cmd::run(a),
         Command::Render(a) => render_cmd::run(a),
         Command::BenchRaster(a) => bench_raster_cmd::run(a),
+        Command::Bench(a) => bench_cmd::run(a),
         Command::BenchRead(a) => bench_read_cmd::run(a),
     };
     match result {

@@ -1,6 +1,6 @@
 //! `pointlet render`: one frame, headless, through the same GPU pipeline as the viewer.
 
-use crate::view_args::{CameraArgs, DrawArgs};
+use crate::view_args::{CameraArgs, DrawArgs, VirtualArgs};
 use anyhow::{Context, Result};
 use pointlet_core::order::apply;
 use pointlet_gpu::{
@@ -23,6 +23,14 @@ pub struct Args {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub draw: DrawArgs,
+    #[command(flatten)]
+    pub virtual_args: VirtualArgs,
+    /// Stores: frames at most to reach the full-detail image of the still camera.
+    #[arg(long, default_value_t = 10_000)]
+    pub max_frames: u32,
+    /// Stores: stop at the LoD image of the bucket instead of converging to full detail.
+    #[arg(long)]
+    pub no_converge: bool,
     /// Points of the demo scene (without INPUT).
     #[arg(long, default_value_t = crate::scene::DEMO_POINTS, value_parser = crate::parse_count_arg)]
     pub demo_points: u64,
@@ -30,10 +38,7 @@ pub struct Args {
 
 /// Opens the GPU and picks the variant to draw with, saying so when it must fall back.
 pub fn open_gpu(draw: &DrawArgs) -> Result<(GpuContext, pointlet_gpu::RasterVariant)> {
-    let ctx = GpuContext::new(&AdapterRequest {
-        name: draw.adapter.clone(),
-        ..Default::default()
-    })?;
+    let ctx = open_adapter(&draw.adapter)?;
     let variant = draw.raster.fallback(&ctx.caps);
     if variant != draw.raster {
         eprintln!(
@@ -47,6 +52,13 @@ pub fn open_gpu(draw: &DrawArgs) -> Result<(GpuContext, pointlet_gpu::RasterVari
         );
     }
     Ok((ctx, variant))
+}
+
+pub fn open_adapter(name: &Option<String>) -> Result<GpuContext> {
+    Ok(GpuContext::new(&AdapterRequest {
+        name: name.clone(),
+        ..Default::default()
+    })?)
 }
 
 /// Puts a point set into a vertex order.
@@ -63,6 +75,13 @@ pub fn reorder(set: PointSet, order: pointlet_core::order::VertexOrder) -> Point
 
 pub fn run(args: Args) -> Result<()> {
     crate::image_out::check_png_path(&args.output)?;
+    if let Some(store) = args
+        .input
+        .as_deref()
+        .filter(|p| crate::load::is_store_path(p))
+    {
+        return render_store(&args, store);
+    }
     let (ctx, variant) = open_gpu(&args.draw)?;
     let scene = crate::scene::load(args.input.as_deref(), args.draw.color, args.demo_points)?;
     let camera = args.camera.camera(&scene.bounds)?;
@@ -79,7 +98,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     renderer.render(&ctx, &mut cloud, &camera, &settings, &mut target)?;
     let rgba = target.read_rgba(&ctx)?;
-    let timing = renderer.timing(&ctx, &target)?;
+    let timing = renderer.timing(&ctx, &mut target)?;
     crate::image_out::write_png(&args.output, args.width, args.height, &rgba)?;
     eprintln!(
         "rendered {} points of {} with {} on {} into {}{}",
@@ -94,6 +113,72 @@ pub fn run(args: Args) -> Result<()> {
                 t.raster_ms, t.screen_ms
             ))
             .unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// A store through the virtualized renderer: frames with a still camera until the image is the
+/// full-detail image (or, with --no-converge, until the LoD's request is resident).
+fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
+    let (ctx, variant) = open_gpu(&args.draw)?;
+    let config = args.virtual_args.config(&args.draw);
+    let mut scene =
+        pointlet_engine::VirtualScene::open(&ctx, path, config, (args.width, args.height))
+            .with_context(|| format!("opening {}", path.display()))?;
+    let camera = args.camera.camera(&scene.bounds())?;
+    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
+    let mut renderer = Renderer::new(&ctx);
+    let settings = RenderSettings {
+        variant,
+        screen: args.draw.screen(),
+        ..Default::default()
+    };
+    if args.no_converge {
+        scene.set_accumulation(false);
+    }
+    let started = std::time::Instant::now();
+    let mut last = None;
+    let mut settled = 0;
+    for _ in 0..args.max_frames {
+        let report = scene.frame(&ctx, &mut renderer, &camera, &settings, &mut target)?;
+        // Without convergence: done once nothing moved to the GPU for a few frames and the
+        // requests arrived.
+        settled = if report.points_uploaded == 0
+            && report.requested_points > 0
+            && report.cache.queued == 0
+        {
+            settled + 1
+        } else {
+            0
+        };
+        let done = report.converged || (args.no_converge && settled >= 8);
+        last = Some(report);
+        if done {
+            break;
+        }
+        // Let loader threads work between frames, as display refresh would.
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let report = last.context("--max-frames must be at least 1")?;
+    if !report.converged && !args.no_converge {
+        eprintln!(
+            "note: not converged after {} frames; writing the image as it is",
+            args.max_frames
+        );
+    }
+    let rgba = target.read_rgba(&ctx)?;
+    crate::image_out::write_png(&args.output, args.width, args.height, &rgba)?;
+    eprintln!(
+        "rendered {} ({} points) with {} on {} into {} after {} frames in {:.2} s: {} points drawn, {} read from disk",
+        path.display(),
+        scene.points(),
+        variant.name(),
+        ctx.describe(),
+        args.output.display(),
+        report.frame,
+        started.elapsed().as_secs_f64(),
+        report.drawn_points,
+        pointlet_core::size::format_bytes(report.cache.bytes_read)
     );
     Ok(())
 }

@@ -4,7 +4,7 @@ use anyhow::{bail, Result};
 use pointlet_core::color::ColorMode;
 use pointlet_core::order::VertexOrder;
 use pointlet_core::{Aabb, Camera};
-use pointlet_gpu::{EdlSettings, PointEncoding, RasterVariant, ScreenSettings};
+use pointlet_gpu::{EdlSettings, OcclusionSettings, PointEncoding, RasterVariant, ScreenSettings};
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct CameraArgs {
@@ -73,6 +73,12 @@ pub struct DrawArgs {
     /// Hole filling radius in pixels (0 = off).
     #[arg(long, default_value_t = 0)]
     pub fill: u32,
+    /// Occlusion filter: drop points seen through gaps of nearer surfaces (paper eq. 4).
+    #[arg(long)]
+    pub occlusion: bool,
+    /// Pixels the occlusion filter searches in each direction.
+    #[arg(long, default_value_t = 3)]
+    pub occlusion_radius: u32,
     /// Background colour, `r,g,b` (0–255) or `#rrggbb`.
     #[arg(long, default_value = "0,0,0", value_parser = parse_color_rgb)]
     pub background: [f32; 4],
@@ -87,6 +93,10 @@ pub struct DrawArgs {
 impl DrawArgs {
     pub fn screen(&self) -> ScreenSettings {
         ScreenSettings {
+            occlusion: self.occlusion.then_some(OcclusionSettings {
+                radius: self.occlusion_radius,
+                ..Default::default()
+            }),
             fill_radius: self.fill,
             edl: self.edl.then_some(EdlSettings {
                 strength: self.edl_strength,
@@ -95,6 +105,59 @@ impl DrawArgs {
             background: self.background,
         }
     }
+}
+
+/// Budgets and LoD of the virtualized renderer (stores).
+#[derive(clap::Args, Clone, Debug)]
+pub struct VirtualArgs {
+    /// The LoD's point bucket B: points drawn per frame while the camera moves.
+    #[arg(long, default_value = "25M", value_parser = crate::parse_count_arg)]
+    pub bucket: u64,
+    /// GPU memory for points, tables and framebuffers (default 2GiB).
+    #[arg(long, value_parser = crate::parse_bytes_arg)]
+    pub vram_budget: Option<u64>,
+    /// RAM for cached points (default: a quarter of the available memory).
+    #[arg(long, value_parser = crate::parse_bytes_arg)]
+    pub ram_budget: Option<u64>,
+    /// Points moved from RAM to the GPU per frame at most.
+    #[arg(long, default_value = "4M", value_parser = crate::parse_count_arg)]
+    pub upload_per_frame: u64,
+    /// Points per GPU page of the virtualized pool.
+    #[arg(long, default_value_t = 256)]
+    pub pool_page_size: u32,
+    /// Loader threads reading from disk.
+    #[arg(long, default_value_t = 4)]
+    pub loaders: usize,
+}
+
+impl VirtualArgs {
+    pub fn config(&self, draw: &DrawArgs) -> pointlet_engine::SceneConfig {
+        pointlet_engine::SceneConfig {
+            vram_budget: self.vram_budget.unwrap_or(2 << 30),
+            ram_budget: self.ram_budget.unwrap_or_else(default_ram_budget),
+            bucket: self.bucket as f64,
+            encoding: draw.encoding,
+            page_size: self.pool_page_size,
+            loaders: self.loaders,
+            upload_per_frame: self.upload_per_frame,
+            color: draw.color,
+        }
+    }
+}
+
+/// A quarter of the memory available now (at least 256 MiB).
+pub fn default_ram_budget() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .map(|kb| kb * 1024 / 4)
+        .unwrap_or(1 << 30)
+        .max(256 << 20)
 }
 
 pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {

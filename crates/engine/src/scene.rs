@@ -92,6 +92,8 @@ pub struct VirtualScene {
     order: Vec<(f64, u32)>,
     /// Colouring generation: bumped when the user colours by another attribute.
     epoch: u32,
+    /// Keep refining a still view to full detail (on by default).
+    accumulation: bool,
     /// Per pointlet: the generation of the colours in its GPU pages.
     gpu_epoch: Vec<u32>,
 }
@@ -186,12 +188,19 @@ impl VirtualScene {
             positions: Vec::new(),
             order: Vec::new(),
             epoch: 0,
+            accumulation: true,
             gpu_epoch: vec![0; n],
         })
     }
 
     pub fn color_mode(&self) -> ColorMode {
         self.cache.source().scale().mode
+    }
+
+    /// With accumulation off, a still camera keeps drawing the LoD image of the bucket (for
+    /// quality measurements of the LoD itself).
+    pub fn set_accumulation(&mut self, on: bool) {
+        self.accumulation = on;
     }
 
     pub fn bucket(&self) -> f64 {
@@ -312,7 +321,7 @@ impl VirtualScene {
         let view_key = (*camera, *settings, (target.width, target.height));
         let still = self.last_camera.as_ref() == Some(&view_key);
         self.last_camera = Some(view_key);
-        let accumulate = still && settings.variant.accumulates();
+        let accumulate = still && self.accumulation && settings.variant.accumulates();
         if accumulate {
             self.still_frames += 1;
             if self.accumulating_since.is_none() {

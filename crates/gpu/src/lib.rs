@@ -23,7 +23,7 @@ pub use paged::{gammas, LodFeedback, PagedCloud, PagedView, PointletDesc};
 pub use pick::PickHit;
 pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
-pub use screen::{EdlSettings, ScreenSettings};
+pub use screen::{EdlSettings, OcclusionSettings, ScreenSettings};
 pub use storage::{
     compact_step, decode_compact, encode_positions, needs_fine, quantize_compact, PointEncoding,
     COMPACT_STEPS,

@@ -60,7 +60,9 @@ pub struct Renderer {
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
     pub(crate) pick: HashMap<(PointEncoding, u32), RasterPipelines>,
     screen: ScreenPasses,
-    last_had_lod: bool,
+    /// Frames submitted so far (the ids timings carry).
+    frames: u64,
+    in_flight: std::collections::VecDeque<wgpu::SubmissionIndex>,
 }
 
 type Stamps<'a> = Option<wgpu::ComputePassTimestampWrites<'a>>;
@@ -72,7 +74,8 @@ impl Renderer {
             hw: HashMap::new(),
             pick: HashMap::new(),
             screen: ScreenPasses::new(&ctx.device),
-            last_had_lod: false,
+            frames: 0,
+            in_flight: std::collections::VecDeque::new(),
         }
     }
 
@@ -136,7 +139,8 @@ impl Renderer {
             (target.width, target.height),
             &settings.hidden_classes,
         );
-        self.screen.prepare(&ctx.queue, target, &settings.screen);
+        self.screen
+            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let timer = target.timer.as_ref();
         let stamps = |begin: u32| {
@@ -168,8 +172,7 @@ impl Renderer {
                 stamps(2),
             );
         }
-        self.last_had_lod = false;
-        self.finish_frame(ctx, enc, target, variant, &settings.screen, stamps(4))
+        self.finish_frame(ctx, enc, target, variant, &settings.screen, false)
     }
 
     /// Records and submits one frame of a paged (virtualized) cloud: the GPU LoD picks each
@@ -193,7 +196,8 @@ impl Renderer {
         }
         Self::check(ctx, variant, camera)?;
         self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size)?;
-        self.screen.prepare(&ctx.queue, target, &settings.screen);
+        self.screen
+            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         // Only closest-point rasterizers are order independent and can add points to a kept
         // framebuffer; HQS must see all points of a frame in both of its passes.
         let view = PagedView {
@@ -229,8 +233,7 @@ impl Renderer {
             !view.accumulate,
             stamps(2),
         );
-        self.last_had_lod = true;
-        self.finish_frame(ctx, enc, target, variant, &settings.screen, stamps(4))?;
+        self.finish_frame(ctx, enc, target, variant, &settings.screen, true)?;
         paged.after_submit();
         Ok(())
     }
@@ -268,38 +271,105 @@ impl Renderer {
         &mut self,
         ctx: &GpuContext,
         mut enc: wgpu::CommandEncoder,
-        target: &RenderTarget,
+        target: &mut RenderTarget,
         variant: RasterVariant,
         screen: &ScreenSettings,
-        stamps: Stamps<'_>,
+        had_lod: bool,
     ) -> Result<(), GpuError> {
         let device = &ctx.device;
         let screen_passes = &mut self.screen;
-        let timer = target.timer.as_ref();
-        ctx.checked("rendering a frame", || {
-            screen_passes.record(device, &mut enc, target, variant.buffers(), screen, stamps);
-            if let Some(t) = timer {
-                t.resolve(&mut enc);
+        self.frames += 1;
+        let frame = self.frames;
+        let submission = {
+            let target_ref = &*target;
+            let stamps = target_ref
+                .timer
+                .as_ref()
+                .map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.queries,
+                    beginning_of_pass_write_index: Some(4),
+                    end_of_pass_write_index: Some(5),
+                });
+            screen_passes.record(
+                device,
+                &mut enc,
+                target_ref,
+                variant.buffers(),
+                screen,
+                stamps,
+            );
+            if let Some(t) = target.timer.as_mut() {
+                t.resolve(&mut enc, frame, had_lod);
             }
-            ctx.queue.submit([enc.finish()]);
-        })
+            ctx.checked("rendering a frame", || ctx.queue.submit([enc.finish()]))?
+        };
+        if let Some(t) = target.timer.as_mut() {
+            t.after_submit();
+        }
+        self.in_flight.push_back(submission);
+        Ok(())
+    }
+
+    /// Frames submitted so far; timings carry these numbers.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Blocks until at most `max` submitted frames are still running on the GPU (as a swap
+    /// chain would), so a render loop measures real throughput without queueing unboundedly.
+    pub fn limit_frames_in_flight(&mut self, ctx: &GpuContext, max: usize) -> Result<(), GpuError> {
+        while self.in_flight.len() > max {
+            if let Some(index) = self.in_flight.pop_front() {
+                ctx.device
+                    .poll(wgpu::PollType::Wait {
+                        submission_index: Some(index),
+                        timeout: None,
+                    })
+                    .map_err(|e| GpuError::Device(format!("waiting for a frame: {e}")))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// GPU timings that have arrived (never blocks), oldest first, with their frame numbers.
+    pub fn poll_timings(
+        &mut self,
+        ctx: &GpuContext,
+        target: &mut RenderTarget,
+    ) -> Vec<(u64, FrameTiming)> {
+        let Some(t) = target.timer.as_mut() else {
+            return Vec::new();
+        };
+        t.poll(ctx)
+            .into_iter()
+            .map(|(frame, [lod, raster, screen], had_lod)| {
+                (
+                    frame,
+                    FrameTiming {
+                        lod_ms: if had_lod { lod } else { 0.0 },
+                        raster_ms: raster,
+                        screen_ms: screen,
+                    },
+                )
+            })
+            .collect()
     }
 
     /// GPU timings of the last frame rendered into `target` (waits for it); `None` without
-    /// timestamp queries.
+    /// timestamp queries or when the frame was not timed.
     pub fn timing(
-        &self,
+        &mut self,
         ctx: &GpuContext,
-        target: &RenderTarget,
+        target: &mut RenderTarget,
     ) -> Result<Option<FrameTiming>, GpuError> {
-        let Some(t) = &target.timer else {
-            return Ok(None);
-        };
-        let [lod, raster, screen] = t.read(ctx)?;
-        Ok(Some(FrameTiming {
-            lod_ms: if self.last_had_lod { lod } else { 0.0 },
-            raster_ms: raster,
-            screen_ms: screen,
-        }))
+        ctx.wait()?;
+        self.in_flight.clear();
+        let last = self.frames;
+        Ok(self
+            .poll_timings(ctx, target)
+            .into_iter()
+            .rev()
+            .find(|(f, _)| *f == last)
+            .map(|(_, t)| t))
     }
 }

@@ -25,6 +25,33 @@ impl Default for EdlSettings {
     }
 }
 
+/// The occlusion filter (virtualized paper §III-D2, eq. 4).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OcclusionSettings {
+    /// Pixels searched in each of 8 directions.
+    pub radius: u32,
+    /// β below which a nearer neighbour blocks a direction (radians; the paper's 0.1).
+    pub threshold: f32,
+}
+
+impl Default for OcclusionSettings {
+    fn default() -> Self {
+        Self {
+            radius: 3,
+            threshold: 0.1,
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct OcclusionUniform {
+    radius: u32,
+    threshold: f32,
+    pixel_angle: f32,
+    min_blocked: u32,
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct ScreenUniform {
@@ -116,6 +143,7 @@ pub(crate) struct ScreenPasses {
     resolve: HashMap<PixelKind, (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     fill_layout: wgpu::BindGroupLayout,
     fill: wgpu::ComputePipeline,
+    occlusion: wgpu::ComputePipeline,
     compose_layout: wgpu::BindGroupLayout,
     compose: wgpu::ComputePipeline,
     uniforms: wgpu::Buffer,
@@ -124,10 +152,15 @@ pub(crate) struct ScreenPasses {
 const SCREEN_OFFSET: u64 = 0;
 const FILL_OFFSET: u64 = 256;
 const COMPOSE_OFFSET: u64 = 512;
+const OCCLUSION_OFFSET: u64 = 768;
+/// Directions (of 8) that must be blocked for the occlusion filter to drop a pixel.
+const OCCLUSION_MIN_BLOCKED: u32 = 6;
 
 /// What the screen passes do this frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScreenSettings {
+    /// Drop points seen through gaps of nearer surfaces (before hole filling).
+    pub occlusion: Option<OcclusionSettings>,
     /// Hole-filling radius in pixels (0 = off).
     pub fill_radius: u32,
     pub edl: Option<EdlSettings>,
@@ -138,6 +171,7 @@ pub struct ScreenSettings {
 impl Default for ScreenSettings {
     fn default() -> Self {
         Self {
+            occlusion: None,
             fill_radius: 0,
             edl: None,
             background: [0.0, 0.0, 0.0, 1.0],
@@ -178,6 +212,14 @@ impl ScreenPasses {
             ],
         );
         let fill = pipeline(device, "fill", shaders::FILL, "fill", &[&fill_layout]);
+        // Same bindings as filling: one layer in, the other out.
+        let occlusion = pipeline(
+            device,
+            "occlusion",
+            shaders::OCCLUSION,
+            "occlusion",
+            &[&fill_layout],
+        );
         let compose = pipeline(
             device,
             "compose",
@@ -187,7 +229,7 @@ impl ScreenPasses {
         );
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("screen uniforms"),
-            size: 768,
+            size: 1024,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -196,6 +238,7 @@ impl ScreenPasses {
             resolve: HashMap::new(),
             fill_layout,
             fill,
+            occlusion,
             compose_layout,
             compose,
             uniforms,
@@ -233,8 +276,15 @@ impl ScreenPasses {
         }))
     }
 
-    /// Writes this frame's uniforms; call before recording.
-    pub fn prepare(&self, queue: &wgpu::Queue, target: &RenderTarget, s: &ScreenSettings) {
+    /// Writes this frame's uniforms; call before recording. `fov_y_deg` sizes pixels for the
+    /// occlusion filter.
+    pub fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        s: &ScreenSettings,
+        fov_y_deg: f64,
+    ) {
         let screen = ScreenUniform {
             size: [target.width, target.height],
             _pad: [0; 2],
@@ -256,6 +306,19 @@ impl ScreenPasses {
         queue.write_buffer(&self.uniforms, SCREEN_OFFSET, bytemuck::bytes_of(&screen));
         queue.write_buffer(&self.uniforms, FILL_OFFSET, bytemuck::bytes_of(&fill));
         queue.write_buffer(&self.uniforms, COMPOSE_OFFSET, bytemuck::bytes_of(&compose));
+        let o = s.occlusion.unwrap_or_default();
+        let pixel_angle = 2.0 * (fov_y_deg.to_radians() * 0.5).tan() / target.height.max(1) as f64;
+        let occlusion = OcclusionUniform {
+            radius: o.radius.clamp(1, 64),
+            threshold: o.threshold,
+            pixel_angle: pixel_angle as f32,
+            min_blocked: OCCLUSION_MIN_BLOCKED,
+        };
+        queue.write_buffer(
+            &self.uniforms,
+            OCCLUSION_OFFSET,
+            bytemuck::bytes_of(&occlusion),
+        );
     }
 
     fn uniform(&self, offset: u64, size: u64) -> wgpu::BindingResource<'_> {
@@ -266,7 +329,8 @@ impl ScreenPasses {
         })
     }
 
-    /// Records resolve → fill → compose into one compute pass.
+    /// Records resolve → occlusion → fill → compose into one compute pass (the middle two
+    /// ping-pong between the two layers).
     pub fn record(
         &mut self,
         device: &wgpu::Device,
@@ -277,7 +341,7 @@ impl ScreenPasses {
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
-        let [a, b] = &target.layers;
+        let a = &target.layers[0];
         let resolve_pipeline = self.resolve_pipeline(device, kind).cloned();
         let resolve = resolve_pipeline.map(|(p, g1)| {
             let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -327,9 +391,31 @@ impl ScreenPasses {
                 entries: &entries,
             })
         };
-        let fill_group = (settings.fill_radius > 0)
-            .then(|| textures(&self.fill_layout, FILL_OFFSET, 16, a, &[&b.color, &b.depth]));
-        let compose_src = if fill_group.is_some() { b } else { a };
+        // Each enabled filter reads the current layer and writes the other one.
+        let mut filters: Vec<(&wgpu::ComputePipeline, wgpu::BindGroup)> = Vec::new();
+        let mut current = 0usize;
+        for (on, pipeline, offset) in [
+            (
+                settings.occlusion.is_some(),
+                &self.occlusion,
+                OCCLUSION_OFFSET,
+            ),
+            (settings.fill_radius > 0, &self.fill, FILL_OFFSET),
+        ] {
+            if on {
+                let (src, dst) = (&target.layers[current], &target.layers[1 - current]);
+                let group = textures(
+                    &self.fill_layout,
+                    offset,
+                    16,
+                    src,
+                    &[&dst.color, &dst.depth],
+                );
+                filters.push((pipeline, group));
+                current = 1 - current;
+            }
+        }
+        let compose_src = &target.layers[current];
         let compose_group = textures(
             &self.compose_layout,
             COMPOSE_OFFSET,
@@ -348,9 +434,9 @@ impl ScreenPasses {
             pass.set_bind_group(1, g1, &[]);
             pass.dispatch_workgroups(groups[0], groups[1], 1);
         }
-        if let Some(g) = &fill_group {
-            pass.set_pipeline(&self.fill);
-            pass.set_bind_group(0, g, &[]);
+        for (pipeline, group) in &filters {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(groups[0], groups[1], 1);
         }
         pass.set_pipeline(&self.compose);

@@ -19,6 +19,7 @@ pub const RESOLVE_MIN32: &str = include_str!("../shaders/resolve_min32.wgsl");
 pub const RESOLVE_HQS: &str = include_str!("../shaders/resolve_hqs.wgsl");
 pub const RESOLVE_HQS1R: &str = include_str!("../shaders/resolve_hqs1r.wgsl");
 pub const FILL: &str = include_str!("../shaders/fill.wgsl");
+pub const OCCLUSION: &str = include_str!("../shaders/occlusion.wgsl");
 pub const COMPOSE: &str = include_str!("../shaders/compose.wgsl");
 pub const COPY: &str = include_str!("../shaders/copy.wgsl");
 pub const LOD: &str = include_str!("../shaders/lod.wgsl");

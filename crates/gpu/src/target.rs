@@ -3,6 +3,8 @@
 
 use crate::context::GpuContext;
 use crate::GpuError;
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::Arc;
 
 /// Per-pixel buffers of the compute rasterizers (cleared to 0 = empty before each frame).
 pub(crate) struct PixelBuffers {
@@ -220,15 +222,29 @@ pub(crate) fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8
     Ok(out)
 }
 
-/// Timestamps at the borders of a frame's passes: LoD, raster and screen start/end.
+/// Timestamps at the borders of a frame's passes: LoD, raster and screen start/end. Results
+/// come back through a small ring of mappable buffers, so a render loop never waits for them.
 pub(crate) struct FrameTimer {
     pub queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    ring: Vec<TimerSlot>,
+    /// Ring slot the frame being recorded resolves into, if one was free.
+    pending: Option<usize>,
     period_ns: f64,
 }
 
+struct TimerSlot {
+    buffer: wgpu::Buffer,
+    state: Arc<AtomicU8>,
+    frame: u64,
+    had_lod: bool,
+}
+
 pub(crate) const TIMESTAMPS: u32 = 6;
+const RING: usize = 8;
+const FREE: u8 = 0;
+const IN_FLIGHT: u8 = 1;
+const READY: u8 = 2;
 
 impl FrameTimer {
     fn new(ctx: &GpuContext) -> Self {
@@ -246,29 +262,79 @@ impl FrameTimer {
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
-            readback: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("timestamps readback"),
-                size: bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            ring: (0..RING)
+                .map(|_| TimerSlot {
+                    buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("timestamps readback"),
+                        size: bytes,
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }),
+                    state: Arc::new(AtomicU8::new(FREE)),
+                    frame: 0,
+                    had_lod: false,
+                })
+                .collect(),
+            pending: None,
             period_ns: ctx.queue.get_timestamp_period() as f64,
         }
     }
 
-    pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.resolve_query_set(&self.queries, 0..TIMESTAMPS, &self.resolve, 0);
-        enc.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, TIMESTAMPS as u64 * 8);
+    /// Records the copy of this frame's timestamps into a free ring slot (none free: this
+    /// frame goes untimed).
+    pub fn resolve(&mut self, enc: &mut wgpu::CommandEncoder, frame: u64, had_lod: bool) {
+        self.pending = self
+            .ring
+            .iter()
+            .position(|r| r.state.load(Ordering::Acquire) == FREE);
+        if let Some(k) = self.pending {
+            let slot = &mut self.ring[k];
+            enc.resolve_query_set(&self.queries, 0..TIMESTAMPS, &self.resolve, 0);
+            enc.copy_buffer_to_buffer(&self.resolve, 0, &slot.buffer, 0, TIMESTAMPS as u64 * 8);
+            slot.frame = frame;
+            slot.had_lod = had_lod;
+            slot.state.store(IN_FLIGHT, Ordering::Release);
+        }
     }
 
-    /// [LoD, raster, screen] milliseconds of the last submitted frame.
-    pub fn read(&self, ctx: &GpuContext) -> Result<[f64; 3], GpuError> {
-        let bytes = map_read(ctx, &self.readback)?;
-        let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
-        let ms = |k: usize| match (t.get(2 * k), t.get(2 * k + 1)) {
-            (Some(a), Some(b)) => b.saturating_sub(*a) as f64 * self.period_ns * 1e-6,
-            _ => 0.0,
-        };
-        Ok([ms(0), ms(1), ms(2)])
+    /// Call after submitting the frame: starts mapping its timestamps.
+    pub fn after_submit(&mut self) {
+        if let Some(k) = self.pending.take() {
+            let state = self.ring[k].state.clone();
+            self.ring[k]
+                .buffer
+                .slice(..)
+                .map_async(wgpu::MapMode::Read, move |r| {
+                    state.store(if r.is_ok() { READY } else { FREE }, Ordering::Release);
+                });
+        }
+    }
+
+    /// Timings that have arrived, oldest first: (frame, [LoD, raster, screen] ms, had LoD).
+    pub fn poll(&mut self, ctx: &GpuContext) -> Vec<(u64, [f64; 3], bool)> {
+        let _ = ctx.device.poll(wgpu::PollType::Poll);
+        let mut out = Vec::new();
+        for slot in &mut self.ring {
+            if slot.state.load(Ordering::Acquire) != READY {
+                continue;
+            }
+            let t: Option<Vec<u64>> = slot
+                .buffer
+                .slice(..)
+                .get_mapped_range()
+                .ok()
+                .map(|v| bytemuck::pod_collect_to_vec(&v));
+            slot.buffer.unmap();
+            slot.state.store(FREE, Ordering::Release);
+            if let Some(t) = t {
+                let ms = |k: usize| match (t.get(2 * k), t.get(2 * k + 1)) {
+                    (Some(a), Some(b)) => b.saturating_sub(*a) as f64 * self.period_ns * 1e-6,
+                    _ => 0.0,
+                };
+                out.push((slot.frame, [ms(0), ms(1), ms(2)], slot.had_lod));
+            }
+        }
+        out.sort_by_key(|r| r.0);
+        out
     }
 }

@@ -340,3 +340,70 @@ fn picking_returns_the_closest_point_under_the_cursor() {
         .expect("pick");
     assert!(hit.is_some_and(|h| h.pixel != [empty % W, empty / W]));
 }
+
+#[test]
+fn occlusion_filter_drops_points_seen_through_a_nearer_surface() {
+    let ctx = context();
+    let cam = camera();
+    // A near wall (depth 20) with holes every 4th pixel, a far wall (depth 40) behind it, and a
+    // free region on the right where only the far wall shows.
+    let mut set = PointSet::default();
+    let mut through_hole = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            let (u, v) = (x as f64 + 0.5, y as f64 + 0.5);
+            set.positions.push(unproject(&cam, u, v, 40.0));
+            set.colors.push(0xff00_00ff);
+            let hole = x % 4 == 1 && y % 4 == 1;
+            if x < 40 && !hole {
+                set.positions.push(unproject(&cam, u, v, 20.0));
+                set.colors.push(0xff00_ff00);
+            } else if x < 36 && x > 4 && y > 4 && y < H - 4 {
+                through_hole.push((x, y));
+            }
+        }
+    }
+    let screen = ScreenSettings {
+        occlusion: Some(pointlet_gpu::OcclusionSettings::default()),
+        ..Default::default()
+    };
+    let img = render(
+        &ctx,
+        &set,
+        PointEncoding::Full16,
+        RasterVariant::EarlyZ,
+        screen,
+        &cam,
+    );
+    let at = |x: u32, y: u32| &img[((y * W + x) * 4) as usize..((y * W + x) * 4 + 3) as usize];
+    assert!(!through_hole.is_empty());
+    for (x, y) in &through_hole {
+        assert_eq!(
+            at(*x, *y),
+            [0, 0, 0],
+            "far point seen through the hole at ({x},{y}) dropped"
+        );
+    }
+    assert_eq!(at(50, 20), [255, 0, 0], "the far wall in the open stays");
+    assert_eq!(
+        at(41, 20),
+        [255, 0, 0],
+        "the background just beside the silhouette stays"
+    );
+    assert_eq!(at(10, 10), [0, 255, 0], "the near wall stays");
+    // With hole filling after it, the holes take the near wall's colour.
+    let filled = render(
+        &ctx,
+        &set,
+        PointEncoding::Full16,
+        RasterVariant::EarlyZ,
+        ScreenSettings {
+            fill_radius: 1,
+            ..screen
+        },
+        &cam,
+    );
+    let (x, y) = through_hole[0];
+    let p = ((y * W + x) * 4) as usize;
+    assert_eq!(&filled[p..p + 3], [0, 255, 0]);
+}

@@ -1,0 +1,404 @@
+//! `pointlet bench`: a store along a camera path through the virtualized renderer — frame-time
+//! statistics (the virtualized paper's Table II), the stage breakdown (its Fig. 15), memory and
+//! streaming counters per frame, a plot; with `--quality`, PSNR of the LoD image against the
+//! full-detail image for several buckets (its Fig. 16–17).
+
+use crate::render_cmd::open_gpu;
+use crate::view_args::{DrawArgs, VirtualArgs};
+use anyhow::{bail, Context, Result};
+use pointlet_core::path::CameraPath;
+use pointlet_core::Camera;
+use pointlet_engine::{FrameReport, VirtualScene};
+use pointlet_gpu::{GpuContext, RenderSettings, RenderTarget, Renderer};
+use pointlet_report::{FrameStats, Series, StageBreakdown};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The store to fly through.
+    pub store: PathBuf,
+    /// `orbit` (the paper's path: one turn around the data, zooming in and out) or a camera
+    /// path JSON file (as the viewer records).
+    #[arg(long, default_value = "orbit")]
+    pub path: String,
+    /// Frames along the path (evenly spaced in time).
+    #[arg(long, default_value_t = 1000)]
+    pub frames: u32,
+    /// Seconds one orbit takes (with `--path orbit`).
+    #[arg(long, default_value_t = 30.0)]
+    pub orbit_seconds: f64,
+    #[arg(long, default_value_t = 1920)]
+    pub width: u32,
+    #[arg(long, default_value_t = 1080)]
+    pub height: u32,
+    /// Frames the GPU may run behind the CPU (a swap chain's depth).
+    #[arg(long, default_value_t = 2)]
+    pub in_flight: usize,
+    /// Per-frame measurements and the summary as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Frame times and stages over the path: `.svg` or `.png`.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Measure image quality instead: PSNR of LoD images against the full-detail image.
+    #[arg(long)]
+    pub quality: bool,
+    /// Buckets for `--quality` (default 1M,2.5M,5M,10M,25M,50M up to the store's size).
+    #[arg(long, value_delimiter = ',', value_parser = crate::parse_count_arg)]
+    pub buckets: Vec<u64>,
+    #[command(flatten)]
+    pub draw: DrawArgs,
+    #[command(flatten)]
+    pub virtual_args: VirtualArgs,
+}
+
+#[derive(Serialize)]
+struct FrameRow {
+    frame: u32,
+    frame_ms: f64,
+    residency_ms: f64,
+    lod_ms: f64,
+    raster_ms: f64,
+    screen_ms: f64,
+    points_drawn: u64,
+    points_requested: u64,
+    points_uploaded: u64,
+    bytes_uploaded: u64,
+    gpu_pages: u32,
+    gpu_points: u64,
+    ram_bytes: u64,
+    disk_bytes_read: u64,
+    loader_queue: usize,
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    store: String,
+    points: u64,
+    adapter: String,
+    width: u32,
+    height: u32,
+    bucket: u64,
+    vram_budget: u64,
+    ram_budget: u64,
+    vram_allocated: u64,
+    ram_peak: u64,
+    stats: &'a FrameStats,
+    stages: &'a [pointlet_report::StageSummary],
+    frames: &'a [FrameRow],
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let (ctx, variant) = open_gpu(&args.draw)?;
+    let config = args.virtual_args.config(&args.draw);
+    let mut scene =
+        VirtualScene::open(&ctx, &args.store, config.clone(), (args.width, args.height))
+            .with_context(|| format!("opening {}", args.store.display()))?;
+    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
+    let mut renderer = Renderer::new(&ctx);
+    let settings = RenderSettings {
+        variant,
+        screen: args.draw.screen(),
+        ..Default::default()
+    };
+    let bounds = scene.bounds();
+    if args.quality {
+        return quality(
+            &args,
+            &ctx,
+            &mut scene,
+            &mut renderer,
+            &mut target,
+            &settings,
+        );
+    }
+    let path = if args.path == "orbit" {
+        CameraPath::orbit(
+            &bounds,
+            args.orbit_seconds,
+            args.frames as f64 / args.orbit_seconds,
+        )?
+    } else {
+        CameraPath::load(Path::new(&args.path))?
+    };
+    let cameras = path.sample(args.frames, &bounds);
+    let mut rows: Vec<FrameRow> = Vec::with_capacity(cameras.len());
+    let mut read_before = 0u64;
+    let mut last_start = Instant::now();
+    let mut first_frame = renderer.frames() + 1;
+    for (k, camera) in cameras.iter().enumerate() {
+        renderer.limit_frames_in_flight(&ctx, args.in_flight)?;
+        let start = Instant::now();
+        if k == 0 {
+            first_frame = renderer.frames() + 1;
+        } else if let Some(prev) = rows.last_mut() {
+            // A frame lasts from its start to the next one's, as a display would see it.
+            prev.frame_ms = (start - last_start).as_secs_f64() * 1e3;
+        }
+        last_start = start;
+        let report = scene.frame(&ctx, &mut renderer, camera, &settings, &mut target)?;
+        rows.push(row(k as u32, &report, &mut read_before));
+        attach_timings(
+            &mut rows,
+            renderer.poll_timings(&ctx, &mut target),
+            first_frame,
+        );
+    }
+    ctx.wait()?;
+    if let Some(prev) = rows.last_mut() {
+        prev.frame_ms = last_start.elapsed().as_secs_f64() * 1e3;
+    }
+    attach_timings(
+        &mut rows,
+        renderer.poll_timings(&ctx, &mut target),
+        first_frame,
+    );
+    let times: Vec<f64> = rows.iter().map(|r| r.frame_ms.max(1e-6)).collect();
+    let stats = FrameStats::from_frame_times_ms(&times)?;
+    let mut stages = StageBreakdown::new(["residency", "lod", "raster", "screen"])?;
+    for r in &rows {
+        stages.push_frame(&[r.residency_ms, r.lod_ms, r.raster_ms, r.screen_ms])?;
+    }
+    let stage_table = stages.summary();
+    let cache = scene.cache_stats();
+    println!(
+        "{}: {} points, {}×{}, bucket {}, {} on {}",
+        args.store.display(),
+        scene.points(),
+        args.width,
+        args.height,
+        args.virtual_args.bucket,
+        variant.name(),
+        ctx.describe()
+    );
+    println!("{stats}");
+    println!("stage breakdown (ms per frame):");
+    for s in &stage_table {
+        println!(
+            "  {:<10} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
+            s.name, s.avg_ms, s.median_ms, s.max_ms
+        );
+    }
+    println!(
+        "memory: GPU {} allocated of a {} budget; RAM cache peak {} of {}; {} read from disk",
+        pointlet_core::size::format_bytes(
+            scene.gpu_bytes() + pointlet_engine::target_bytes(args.width, args.height)
+        ),
+        pointlet_core::size::format_bytes(config.vram_budget),
+        pointlet_core::size::format_bytes(cache.ram_peak),
+        pointlet_core::size::format_bytes(config.ram_budget),
+        pointlet_core::size::format_bytes(cache.bytes_read)
+    );
+    if let Some(p) = &args.plot {
+        write_plot(p, &rows)?;
+    }
+    if let Some(p) = &args.json {
+        let summary = Summary {
+            store: args.store.display().to_string(),
+            points: scene.points(),
+            adapter: ctx.describe(),
+            width: args.width,
+            height: args.height,
+            bucket: args.virtual_args.bucket,
+            vram_budget: config.vram_budget,
+            ram_budget: config.ram_budget,
+            vram_allocated: scene.gpu_bytes()
+                + pointlet_engine::target_bytes(args.width, args.height),
+            ram_peak: cache.ram_peak,
+            stats: &stats,
+            stages: &stage_table,
+            frames: &rows,
+        };
+        std::fs::write(p, serde_json::to_string_pretty(&summary)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
+
+fn row(frame: u32, r: &FrameReport, read_before: &mut u64) -> FrameRow {
+    let read = r.cache.bytes_read.saturating_sub(*read_before);
+    *read_before = r.cache.bytes_read;
+    FrameRow {
+        frame,
+        frame_ms: 0.0,
+        residency_ms: r.residency_ms,
+        lod_ms: 0.0,
+        raster_ms: 0.0,
+        screen_ms: 0.0,
+        points_drawn: r.drawn_points,
+        points_requested: r.requested_points,
+        points_uploaded: r.points_uploaded,
+        bytes_uploaded: r.bytes_uploaded,
+        gpu_pages: r.pages_resident,
+        gpu_points: r.gpu_points,
+        ram_bytes: r.cache.ram_used,
+        disk_bytes_read: read,
+        loader_queue: r.cache.queued,
+    }
+}
+
+/// Puts GPU timings (numbered by the renderer from `first`) into their frames' rows.
+fn attach_timings(
+    rows: &mut [FrameRow],
+    timings: Vec<(u64, pointlet_gpu::FrameTiming)>,
+    first: u64,
+) {
+    for (frame, t) in timings {
+        if let Some(r) = frame
+            .checked_sub(first)
+            .and_then(|k| rows.get_mut(k as usize))
+        {
+            r.lod_ms = t.lod_ms;
+            r.raster_ms = t.raster_ms;
+            r.screen_ms = t.screen_ms;
+        }
+    }
+}
+
+fn write_plot(path: &Path, rows: &[FrameRow]) -> Result<()> {
+    let series = |name: &str, k: usize, f: &dyn Fn(&FrameRow) -> f64| Series {
+        name: name.to_string(),
+        color: pointlet_report::palette(k),
+        points: rows.iter().map(|r| (r.frame as f64, f(r))).collect(),
+    };
+    let all = [
+        series("frame", 0, &|r| r.frame_ms),
+        series("raster (GPU)", 1, &|r| r.raster_ms),
+        series("LoD (GPU)", 2, &|r| r.lod_ms),
+        series("residency (CPU)", 3, &|r| r.residency_ms),
+        series("screen (GPU)", 4, &|r| r.screen_ms),
+    ];
+    let title = "frame time along the path";
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let bytes = match ext.as_deref() {
+        Some("svg") => pointlet_report::plot_svg(title, &all, "frame", "ms").into_bytes(),
+        Some("png") => pointlet_report::plot_png(title, &all, "frame", "ms", 1600, 900)?,
+        _ => bail!("plot {} must end in .svg or .png", path.display()),
+    };
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Renders frames of a still `camera` until `done` says so; the last report.
+fn settle(
+    ctx: &GpuContext,
+    scene: &mut VirtualScene,
+    renderer: &mut Renderer,
+    target: &mut RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+    done: impl Fn(&FrameReport, u32) -> bool,
+) -> Result<FrameReport> {
+    let mut quiet = 0;
+    for _ in 0..20_000 {
+        let r = scene.frame(ctx, renderer, camera, settings, target)?;
+        quiet = if r.points_uploaded == 0 && r.cache.queued == 0 && r.requested_points > 0 {
+            quiet + 1
+        } else {
+            0
+        };
+        if done(&r, quiet) {
+            return Ok(r);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    bail!("the view did not settle within 20 000 frames")
+}
+
+#[derive(Serialize)]
+struct QualityRow {
+    view: &'static str,
+    bucket: u64,
+    /// LoD image vs full detail.
+    psnr_db: f64,
+    /// Hole-filled LoD image vs hole-filled full detail.
+    psnr_filled_db: f64,
+}
+
+fn quality(
+    args: &Args,
+    ctx: &GpuContext,
+    scene: &mut VirtualScene,
+    renderer: &mut Renderer,
+    target: &mut RenderTarget,
+    settings: &RenderSettings,
+) -> Result<()> {
+    let bounds = scene.bounds();
+    let plain = RenderSettings {
+        screen: pointlet_gpu::ScreenSettings {
+            fill_radius: 0,
+            ..settings.screen
+        },
+        ..*settings
+    };
+    let filled = RenderSettings {
+        screen: pointlet_gpu::ScreenSettings {
+            fill_radius: args.draw.fill.max(1),
+            ..settings.screen
+        },
+        ..*settings
+    };
+    let buckets: Vec<u64> = if args.buckets.is_empty() {
+        [
+            1_000_000u64,
+            2_500_000,
+            5_000_000,
+            10_000_000,
+            25_000_000,
+            50_000_000,
+        ]
+        .into_iter()
+        .filter(|b| *b < scene.points())
+        .collect()
+    } else {
+        args.buckets.clone()
+    };
+    let mut rows = Vec::new();
+    for (view, camera) in [
+        ("overview", Camera::overview(&bounds, 60.0)),
+        ("closeup", Camera::closeup(&bounds, 60.0)),
+    ] {
+        // Ground truth: full detail, once plain and once hole-filled (filling changes the truth
+        // too, so filled LoD images are compared with the filled truth).
+        scene.set_accumulation(true);
+        let mut truth = Vec::new();
+        for s in [&plain, &filled] {
+            settle(ctx, scene, renderer, target, &camera, s, |r, _| r.converged)?;
+            truth.push(target.read_rgba(ctx)?);
+        }
+        scene.set_accumulation(false);
+        for b in &buckets {
+            scene.set_bucket(*b as f64);
+            let mut psnr = [0.0; 2];
+            for (k, s) in [&plain, &filled].into_iter().enumerate() {
+                settle(ctx, scene, renderer, target, &camera, s, |_, quiet| {
+                    quiet >= 8
+                })?;
+                psnr[k] = pointlet_report::psnr(&target.read_rgba(ctx)?, &truth[k])?;
+            }
+            println!(
+                "{view:<9} bucket {:>12}: PSNR {:>6.2} dB, with hole filling {:>6.2} dB",
+                b, psnr[0], psnr[1]
+            );
+            rows.push(QualityRow {
+                view,
+                bucket: *b,
+                psnr_db: psnr[0],
+                psnr_filled_db: psnr[1],
+            });
+        }
+        scene.set_bucket(args.virtual_args.bucket as f64);
+    }
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
