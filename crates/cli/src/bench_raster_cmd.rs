@@ -54,6 +54,8 @@ struct Row {
     view: &'static str,
     median_ms: f64,
     min_ms: f64,
+    /// Median wall-clock time of the whole frame (submit to completion): a sanity bound.
+    wall_ms: f64,
     points_per_s: f64,
     gb_per_s: f64,
     fraction_of_copy: Option<f64>,
@@ -140,13 +142,16 @@ pub fn run(args: Args) -> Result<()> {
                         ..Default::default()
                     };
                     let mut times = Vec::new();
+                    let mut walls = Vec::new();
                     for frame in 0..args.frames + 2 {
+                        let started = std::time::Instant::now();
                         renderer.render(&ctx, &mut cloud, camera, &settings, &mut target)?;
                         let t = renderer
                             .timing(&ctx, &mut target)?
                             .context("timestamps vanished")?;
                         if frame >= 2 {
                             times.push(t.raster_ms);
+                            walls.push(started.elapsed().as_secs_f64() * 1e3);
                         }
                     }
                     let bytes = (cloud.points * encoding.bytes_per_point()
@@ -161,6 +166,7 @@ pub fn run(args: Args) -> Result<()> {
                         view,
                         median_ms: med,
                         min_ms: times.iter().cloned().fold(f64::INFINITY, f64::min),
+                        wall_ms: median(walls),
                         points_per_s: points as f64 / (med * 1e-3),
                         gb_per_s: gbs,
                         fraction_of_copy: copy.map(|c| gbs / c),

@@ -52,7 +52,18 @@ enum Command {
     BenchRead(bench_read_cmd::Args),
 }
 
+/// Output piped into `head` and closed early ends the program quietly, as Unix tools do,
+/// instead of a panic on the failed print.
+fn default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> ExitCode {
+    default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Convert(a) => convert_cmd::run(a),

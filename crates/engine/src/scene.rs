@@ -9,11 +9,12 @@ use crate::EngineError;
 use pointlet_core::color::ColorMode;
 use pointlet_core::{Aabb, Camera, Quantization};
 use pointlet_gpu::{
-    GpuContext, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings, RenderTarget,
-    Renderer,
+    GpuContext, PageWrite, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
+    RenderTarget, Renderer,
 };
 use pointlet_store::Store;
 use pointlet_stream::{CacheConfig, CacheStats, RamCache};
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -88,7 +89,6 @@ pub struct VirtualScene {
     accumulating_since: Option<u64>,
     total_points: u64,
     slots: u32,
-    positions: Vec<[f64; 3]>,
     order: Vec<(f64, u32)>,
     /// Colouring generation: bumped when the user colours by another attribute.
     epoch: u32,
@@ -185,7 +185,6 @@ impl VirtualScene {
             total_points: header.points,
             slots,
             config,
-            positions: Vec::new(),
             order: Vec::new(),
             epoch: 0,
             accumulation: true,
@@ -348,7 +347,7 @@ impl VirtualScene {
             accumulating: accumulate,
             ..Default::default()
         };
-        self.update_residency(ctx, accumulate, &mut report);
+        self.update_residency(accumulate, &mut report);
         report.residency_ms = started.elapsed().as_secs_f64() * 1e3;
         renderer.render_paged(
             ctx,
@@ -390,7 +389,7 @@ impl VirtualScene {
                 .all(|((r, d), c)| (*r == 0 || r == c) && d >= r)
     }
 
-    fn update_residency(&mut self, ctx: &GpuContext, accumulate: bool, report: &mut FrameReport) {
+    fn update_residency(&mut self, accumulate: bool, report: &mut FrameReport) {
         let n = self.counts.len();
         let ps = self.config.page_size;
         let frame = report.frame;
@@ -428,7 +427,7 @@ impl VirtualScene {
                 .accumulating_since
                 .is_some_and(|since| self.feedback_frame >= since);
         let mut budget = self.config.upload_per_frame;
-        self.recolor_stale(ctx, &mut budget, report);
+        self.recolor_stale(&mut budget, report);
         // Most starved first: the smallest share of its request resident.
         self.order.clear();
         for i in 0..n {
@@ -443,6 +442,8 @@ impl VirtualScene {
         self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut victims: Option<Vec<u32>> = None;
         let order = std::mem::take(&mut self.order);
+        // Plan: slots and ranges, serially (allocation and eviction decisions).
+        let mut jobs: Vec<(u32, u32, u32, u32)> = Vec::new();
         'pointlets: for (_, i) in &order {
             let i = *i as usize;
             let target_hi = self.requested[i].min(self.cache.held(i).end);
@@ -462,46 +463,64 @@ impl VirtualScene {
                 let end = target_hi
                     .min(page_end)
                     .min(hi + budget.min(u32::MAX as u64) as u32);
-                let q = self.quantization;
-                let positions = &mut self.positions;
-                let paged = &mut self.paged;
-                let written = self
-                    .cache
-                    .with_points(i, hi..end, |first, raw, colors| {
-                        if first != hi {
-                            return 0;
-                        }
-                        positions.clear();
-                        positions.extend(raw.iter().map(|p| q.dequantize(*p)));
-                        paged.write_points(ctx, i as u32, slot, hi, positions, colors);
-                        raw.len() as u32
-                    })
-                    .unwrap_or(0);
-                if written == 0 {
-                    // The slot taken for this page stays with the window; it fills next frame.
-                    break;
-                }
-                self.residency.extend(i, hi + written);
-                budget = budget.saturating_sub(written as u64);
-                report.points_uploaded += written as u64;
+                jobs.push((i as u32, slot, hi, end));
+                self.residency.extend(i, end);
+                budget = budget.saturating_sub((end - hi) as u64);
             }
             if budget == 0 {
                 break;
             }
         }
         self.order = order;
+        // Gather and dequantize in parallel: the RAM cache holds these ranges until the next
+        // request (this thread's), so nothing planned goes missing.
+        let q = self.quantization;
+        let cache = &self.cache;
+        let data: Vec<(Vec<[f64; 3]>, Vec<u32>)> = jobs
+            .par_iter()
+            .map(|&(i, _, lo, hi)| {
+                cache
+                    .with_points(i as usize, lo..hi, |first, raw, colors| {
+                        if first != lo {
+                            return (Vec::new(), Vec::new());
+                        }
+                        let positions = raw.iter().map(|p| q.dequantize(*p)).collect();
+                        (positions, colors.to_vec())
+                    })
+                    .unwrap_or_default()
+            })
+            .collect();
+        let mut pages = Vec::with_capacity(jobs.len());
+        for (&(i, slot, lo, hi), (positions, colors)) in jobs.iter().zip(&data) {
+            let got = positions.len() as u32;
+            if got < hi - lo {
+                // Should not happen (see above); keep the window honest if it does.
+                report.pages_evicted += self.residency.trim_tail(i as usize, lo + got) as u64;
+            }
+            if got > 0 {
+                pages.push(PageWrite {
+                    pointlet: i,
+                    slot,
+                    first_point: lo,
+                    positions,
+                    colors,
+                });
+                report.points_uploaded += got as u64;
+            }
+        }
+        self.paged.write_pages(&pages);
         report.bytes_uploaded +=
             report.points_uploaded * self.config.encoding.resident_bytes_per_point();
         for i in self.residency.take_dirty() {
             let w = self.residency.window(i as usize);
             let slots: Vec<u32> = w.slots.iter().copied().collect();
-            self.paged.set_residency(ctx, i, w.lo, w.hi, &slots);
+            self.paged.set_residency(i, w.lo, w.hi, &slots);
         }
     }
 
     /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their
     /// points with the new colours; only the colour stream is uploaded (4 bytes a point).
-    fn recolor_stale(&mut self, ctx: &GpuContext, budget: &mut u64, report: &mut FrameReport) {
+    fn recolor_stale(&mut self, budget: &mut u64, report: &mut FrameReport) {
         let ps = self.config.page_size;
         for i in 0..self.counts.len() {
             if self.gpu_epoch[i] == self.epoch {
@@ -519,9 +538,9 @@ impl VirtualScene {
             for (k, slot) in w.slots.iter().enumerate() {
                 let start = w.lo + k as u32 * ps;
                 let end = (start + ps).min(w.hi);
-                let paged = &self.paged;
+                let paged = &mut self.paged;
                 self.cache.with_points(i, start..end, |first, _, colors| {
-                    paged.write_colors(ctx, *slot, first, colors);
+                    paged.write_colors(*slot, first, colors);
                 });
             }
             *budget -= w.points() as u64;

@@ -15,6 +15,7 @@ mod screen;
 mod shaders;
 mod storage;
 mod target;
+mod upload;
 
 pub use bandwidth::copy_bandwidth;
 pub use cloud::{GpuCloud, PageMeta, PointSet};
@@ -29,6 +30,7 @@ pub use storage::{
     COMPACT_STEPS,
 };
 pub use target::RenderTarget;
+pub use upload::PageWrite;
 
 use thiserror::Error;
 

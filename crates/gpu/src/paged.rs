@@ -6,9 +6,9 @@
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
 use crate::storage::{
-    compact_step, encode_positions, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame,
-    PointEncoding, PointStorage,
+    DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
+use crate::upload::{PageWrite, UploadQueue};
 use crate::{shaders, GpuError};
 use bytemuck::{Pod, Zeroable};
 use pointlet_core::{Aabb, Camera};
@@ -134,8 +134,8 @@ pub struct PagedCloud {
     pending_map: Option<usize>,
     frame: u64,
     table_bytes: u64,
-    /// Encoding buffers reused across writes.
-    scratch: (Vec<u32>, Vec<u32>),
+    uploads: UploadQueue,
+    boxes: Vec<Aabb>,
 }
 
 impl PagedCloud {
@@ -353,6 +353,8 @@ impl PagedCloud {
             ],
         );
         let list_group = group(&group1_layout, &[(0, &entry_counts), (1, &indirect)]);
+        let uploads = UploadQueue::new(ctx, &storage)?;
+        let boxes = pointlets.iter().map(|p| p.aabb).collect();
         let table_bytes = infos.size()
             + entries.size()
             + pointlet_buf.size()
@@ -386,7 +388,8 @@ impl PagedCloud {
             pending_map: None,
             frame: 0,
             table_bytes,
-            scratch: (Vec::new(), Vec::new()),
+            uploads,
+            boxes,
         })
     }
 
@@ -399,60 +402,24 @@ impl PagedCloud {
         self.storage.bytes() + self.table_bytes
     }
 
-    /// Encodes points `first_point..` of `pointlet` (absolute f64 coordinates) into `slot`,
-    /// which must hold the page containing `first_point`; the run must not cross the page end.
-    pub fn write_points(
-        &mut self,
-        ctx: &GpuContext,
-        pointlet: u32,
-        slot: u32,
-        first_point: u32,
-        positions: &[[f64; 3]],
-        colors: &[u32],
-    ) {
-        let Some(desc) = self.pointlets.get(pointlet as usize) else {
-            return;
-        };
-        let (main, fine) = &mut self.scratch;
-        main.clear();
-        fine.clear();
-        encode_positions(
-            positions,
-            desc.aabb.min,
-            compact_step(desc.aabb.extent()),
-            self.encoding,
-            main,
-            fine,
-        );
-        self.storage.write(
-            &ctx.queue,
-            slot,
-            first_point % self.page_size,
-            main,
-            fine,
-            colors,
-        );
+    /// Queues point runs for their page slots (each run inside one page); they reach the GPU
+    /// with the next frame, in one batch.
+    pub fn write_pages(&mut self, pages: &[PageWrite<'_>]) {
+        self.uploads.write_pages(pages, &self.boxes, self.encoding);
     }
 
-    /// Replaces the colours of points `first_point..` in `slot` (recolouring: positions stay).
-    pub fn write_colors(&self, ctx: &GpuContext, slot: u32, first_point: u32, colors: &[u32]) {
-        self.storage
-            .write_colors(&ctx.queue, slot, first_point % self.page_size, colors);
+    /// Queues new colours for points `first_point..` in `slot` (recolouring: positions stay).
+    pub fn write_colors(&mut self, slot: u32, first_point: u32, colors: &[u32]) {
+        self.uploads.write_colors(slot, first_point, colors);
     }
 
-    /// Publishes that points `lo..hi` of `pointlet` are resident, page j (from lo / page size)
-    /// in `slots[j - lo / page size]`.
-    pub fn set_residency(&self, ctx: &GpuContext, pointlet: u32, lo: u32, hi: u32, slots: &[u32]) {
-        let i = pointlet as u64;
-        ctx.queue
-            .write_buffer(&self.state, i * 16, bytemuck::cast_slice(&[lo, hi]));
-        if !slots.is_empty() {
-            let first_page = (lo / self.page_size) as u64;
-            ctx.queue.write_buffer(
-                &self.page_table,
-                (i * self.max_pages as u64 + first_page) * 4,
-                bytemuck::cast_slice(slots),
-            );
+    /// Publishes (with the next frame) that points `lo..hi` of `pointlet` are resident, page j
+    /// (from lo / page size) in `slots[j - lo / page size]`.
+    pub fn set_residency(&mut self, pointlet: u32, lo: u32, hi: u32, slots: &[u32]) {
+        self.uploads.set_state(pointlet, lo, hi);
+        let first = pointlet * self.max_pages + lo / self.page_size;
+        for (k, slot) in slots.iter().enumerate() {
+            self.uploads.set_page(first + k as u32, *slot);
         }
     }
 
@@ -467,7 +434,9 @@ impl PagedCloud {
         view: &PagedView,
         hidden_classes: &[u32; 8],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
+    ) -> Result<(), GpuError> {
+        self.uploads
+            .flush(ctx, enc, &self.storage, &self.page_table, &self.state)?;
         write_frame(
             ctx,
             &self.frame_uniform,
@@ -528,6 +497,7 @@ impl PagedCloud {
             r.frame = self.frame;
             self.pending_map = Some(k);
         }
+        Ok(())
     }
 
     /// Call after the frame's submission: starts mapping the requests copied this frame.

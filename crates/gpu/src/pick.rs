@@ -85,7 +85,7 @@ impl Renderer {
             &view,
             &settings.hidden_classes,
             None,
-        );
+        )?;
         let (encoding, page_size) = (paged.encoding, paged.page_size);
         self.record_pick(
             ctx,

@@ -221,7 +221,7 @@ impl Renderer {
             &view,
             &settings.hidden_classes,
             stamps(0),
-        );
+        )?;
         self.record_raster(
             ctx,
             &mut enc,

@@ -23,6 +23,8 @@ pub const OCCLUSION: &str = include_str!("../shaders/occlusion.wgsl");
 pub const COMPOSE: &str = include_str!("../shaders/compose.wgsl");
 pub const COPY: &str = include_str!("../shaders/copy.wgsl");
 pub const LOD: &str = include_str!("../shaders/lod.wgsl");
+pub const UPLOAD: &str = include_str!("../shaders/upload.wgsl");
+pub const TABLES: &str = include_str!("../shaders/tables.wgsl");
 
 /// A point pass: header + fetch for `encoding` + body.
 pub fn point_pass(encoding: PointEncoding, body: &str) -> String {

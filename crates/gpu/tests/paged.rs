@@ -27,25 +27,32 @@ fn pointlets(set: &PointSet, k: usize) -> Vec<PointletDesc> {
 
 /// Uploads every point of every pointlet into the pool (pages in order) and publishes it.
 fn make_resident(ctx: &GpuContext, paged: &mut PagedCloud, set: &PointSet, k: usize) {
+    let _ = ctx;
     let ps = paged.page_size as usize;
     let mut slot = 0u32;
-    for (i, desc) in paged.pointlets().to_vec().iter().enumerate() {
+    let descs = paged.pointlets().to_vec();
+    let mut pages = Vec::new();
+    let mut published = Vec::new();
+    for (i, desc) in descs.iter().enumerate() {
         let start = i * k;
         let mut slots = Vec::new();
         for first in (0..desc.count as usize).step_by(ps) {
             let end = (first + ps).min(desc.count as usize);
-            paged.write_points(
-                ctx,
-                i as u32,
+            pages.push(pointlet_gpu::PageWrite {
+                pointlet: i as u32,
                 slot,
-                first as u32,
-                &set.positions[start + first..start + end],
-                &set.colors[start + first..start + end],
-            );
+                first_point: first as u32,
+                positions: &set.positions[start + first..start + end],
+                colors: &set.colors[start + first..start + end],
+            });
             slots.push(slot);
             slot += 1;
         }
-        paged.set_residency(ctx, i as u32, 0, desc.count, &slots);
+        published.push((i as u32, desc.count, slots));
+    }
+    paged.write_pages(&pages);
+    for (i, count, slots) in published {
+        paged.set_residency(i, 0, count, &slots);
     }
 }
 

@@ -1,0 +1,436 @@
+//! Batched uploads for paged clouds: a frame's new pages and table changes are packed on the
+//! CPU (encoding in parallel) and applied on the GPU by two small scatter passes
+//! (upload.wgsl, tables.wgsl), so a frame costs a few buffer writes whatever changed.
+
+use crate::context::GpuContext;
+use crate::raster::grid;
+use crate::shaders;
+use crate::storage::{compact_step, encode_positions, PointEncoding, PointStorage};
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use pointlet_core::Aabb;
+use rayon::prelude::*;
+
+/// Points `first_point..` of a pointlet (absolute coordinates) going into one page slot; the
+/// run must stay inside the page.
+pub struct PageWrite<'a> {
+    pub pointlet: u32,
+    pub slot: u32,
+    pub first_point: u32,
+    pub positions: &'a [[f64; 3]],
+    pub colors: &'a [u32],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Run {
+    dst: u32,
+    src: u32,
+    count: u32,
+    flags: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct ChunkRuns {
+    offset: u32,
+    count: u32,
+    words: u32,
+    has_fine: u32,
+}
+
+const COLORS_ONLY: u32 = 1;
+
+/// GPU side of the queue: staging buffers (grown on demand) and the passes.
+pub(crate) struct UploadQueue {
+    words: usize,
+    compact: bool,
+    page_size: u32,
+    slots_per_chunk: u32,
+    // CPU packing for the next flush.
+    positions: Vec<u32>,
+    fine: Vec<u32>,
+    colors: Vec<u32>,
+    runs: Vec<Vec<Run>>,
+    page_updates: Vec<[u32; 2]>,
+    state_updates: Vec<[u32; 4]>,
+    // GPU.
+    capacity_points: u64,
+    capacity_runs: u64,
+    capacity_updates: u64,
+    staging: Option<Staging>,
+    scatter: wgpu::ComputePipeline,
+    tables: wgpu::ComputePipeline,
+}
+
+struct Staging {
+    positions: wgpu::Buffer,
+    fine: wgpu::Buffer,
+    colors: wgpu::Buffer,
+    runs: wgpu::Buffer,
+    chunk_uniforms: Vec<wgpu::Buffer>,
+    chunk_groups: Vec<wgpu::BindGroup>,
+    page_updates: wgpu::Buffer,
+    state_updates: wgpu::Buffer,
+    counts: wgpu::Buffer,
+    tables_group: wgpu::BindGroup,
+}
+
+impl UploadQueue {
+    pub fn new(ctx: &GpuContext, storage: &PointStorage) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let (scatter, tables) = ctx.checked("building the upload passes", || {
+            let pipeline = |label: &str, source: &str, entry: &str| {
+                let module = shaders::module(device, label, source);
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+            (
+                pipeline("upload", shaders::UPLOAD, "scatter"),
+                pipeline("tables", shaders::TABLES, "apply"),
+            )
+        })?;
+        Ok(Self {
+            words: (storage.encoding.position_bytes() / 4) as usize,
+            compact: storage.encoding == PointEncoding::Compact8,
+            page_size: storage.page_size,
+            slots_per_chunk: storage.slots_per_chunk,
+            positions: Vec::new(),
+            fine: Vec::new(),
+            colors: Vec::new(),
+            runs: vec![Vec::new(); storage.chunks.len()],
+            page_updates: Vec::new(),
+            state_updates: Vec::new(),
+            capacity_points: 0,
+            capacity_runs: 0,
+            capacity_updates: 0,
+            staging: None,
+            scatter,
+            tables,
+        })
+    }
+
+    fn dst(&self, slot: u32, first_point: u32) -> (usize, u32) {
+        let chunk = (slot / self.slots_per_chunk) as usize;
+        let in_chunk =
+            (slot % self.slots_per_chunk) * self.page_size + first_point % self.page_size;
+        (chunk, in_chunk)
+    }
+
+    /// Packs pages for the next flush, encoding them in parallel.
+    pub fn write_pages(
+        &mut self,
+        pages: &[PageWrite<'_>],
+        boxes: &[Aabb],
+        encoding: PointEncoding,
+    ) {
+        let base = self.colors.len();
+        let counts: Vec<usize> = pages
+            .iter()
+            .map(|p| p.positions.len().min(p.colors.len()))
+            .collect();
+        let total: usize = counts.iter().sum();
+        self.positions
+            .resize(self.positions.len() + total * self.words, 0);
+        if self.compact {
+            self.fine.resize(self.fine.len() + total, 0);
+        }
+        self.colors.resize(base + total, 0);
+        // Disjoint output slices, one per page, then encode them all at once.
+        let words = self.words;
+        let dsts: Vec<(usize, u32)> = pages
+            .iter()
+            .map(|p| self.dst(p.slot, p.first_point))
+            .collect();
+        let mut pos_rest = &mut self.positions[base * words..];
+        let mut fine_rest: &mut [u32] = if self.compact {
+            &mut self.fine[base..]
+        } else {
+            &mut []
+        };
+        let mut col_rest = &mut self.colors[base..];
+        let mut jobs = Vec::with_capacity(pages.len());
+        let mut src = base as u32;
+        for ((page, n), (chunk, dst)) in pages.iter().zip(&counts).zip(dsts) {
+            let (p, r) = std::mem::take(&mut pos_rest).split_at_mut(n * words);
+            pos_rest = r;
+            let f = if self.compact {
+                let (f, r) = std::mem::take(&mut fine_rest).split_at_mut(*n);
+                fine_rest = r;
+                f
+            } else {
+                &mut []
+            };
+            let (c, r) = std::mem::take(&mut col_rest).split_at_mut(*n);
+            col_rest = r;
+            jobs.push((page, *n, p, f, c));
+            if let Some(list) = self.runs.get_mut(chunk) {
+                list.push(Run {
+                    dst,
+                    src,
+                    count: *n as u32,
+                    flags: 0,
+                });
+            }
+            src += *n as u32;
+        }
+        jobs.into_par_iter().for_each(|(page, n, p, f, c)| {
+            let Some(b) = boxes.get(page.pointlet as usize) else {
+                return;
+            };
+            let mut main = Vec::with_capacity(n * words);
+            let mut fine = Vec::with_capacity(n);
+            encode_positions(
+                &page.positions[..n],
+                b.min,
+                compact_step(b.extent()),
+                encoding,
+                &mut main,
+                &mut fine,
+            );
+            p.copy_from_slice(&main);
+            if !f.is_empty() {
+                f.copy_from_slice(&fine);
+            }
+            c.copy_from_slice(&page.colors[..n]);
+        });
+    }
+
+    /// Packs new colours for points `first_point..` of `slot` (positions stay).
+    pub fn write_colors(&mut self, slot: u32, first_point: u32, colors: &[u32]) {
+        let src = self.colors.len() as u32;
+        self.colors.extend_from_slice(colors);
+        // Keep the streams aligned point for point: the run reads colours only.
+        self.positions.resize(self.colors.len() * self.words, 0);
+        if self.compact {
+            self.fine.resize(self.colors.len(), 0);
+        }
+        let (chunk, dst) = self.dst(slot, first_point);
+        if let Some(list) = self.runs.get_mut(chunk) {
+            list.push(Run {
+                dst,
+                src,
+                count: colors.len() as u32,
+                flags: COLORS_ONLY,
+            });
+        }
+    }
+
+    pub fn set_page(&mut self, index: u32, slot: u32) {
+        self.page_updates.push([index, slot]);
+    }
+
+    pub fn set_state(&mut self, pointlet: u32, lo: u32, hi: u32) {
+        self.state_updates.push([pointlet, lo, hi, 0]);
+    }
+
+    fn ensure_capacity(
+        &mut self,
+        ctx: &GpuContext,
+        storage: &PointStorage,
+        page_table: &wgpu::Buffer,
+        state: &wgpu::Buffer,
+    ) -> Result<(), GpuError> {
+        let points = self.colors.len() as u64;
+        let runs: u64 = self.runs.iter().map(|r| r.len() as u64).sum();
+        let updates = self.page_updates.len().max(self.state_updates.len()) as u64;
+        if self.staging.is_some()
+            && points <= self.capacity_points
+            && runs <= self.capacity_runs
+            && updates <= self.capacity_updates
+        {
+            return Ok(());
+        }
+        self.capacity_points = points.max(self.capacity_points * 2).max(1 << 16);
+        self.capacity_runs = runs.max(self.capacity_runs * 2).max(1 << 10);
+        self.capacity_updates = updates.max(self.capacity_updates * 2).max(1 << 10);
+        let device = &ctx.device;
+        let buffer = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let s = wgpu::BufferUsages::STORAGE;
+        let cap = self.capacity_points;
+        let staging = ctx.checked("allocating upload staging", || {
+            let positions = buffer("upload positions", cap * self.words as u64 * 4, s);
+            let fine = buffer("upload fine", if self.compact { cap * 4 } else { 16 }, s);
+            let colors = buffer("upload colours", cap * 4, s);
+            let runs = buffer("upload runs", self.capacity_runs * 16, s);
+            let page_updates = buffer("page updates", self.capacity_updates * 8, s);
+            let state_updates = buffer("state updates", self.capacity_updates * 16, s);
+            let counts = buffer("update counts", 16, wgpu::BufferUsages::UNIFORM);
+            let chunk_uniforms: Vec<wgpu::Buffer> = storage
+                .chunks
+                .iter()
+                .map(|_| buffer("chunk runs", 16, wgpu::BufferUsages::UNIFORM))
+                .collect();
+            let layout = self.scatter.get_bind_group_layout(0);
+            let chunk_groups = storage
+                .chunks
+                .iter()
+                .zip(&chunk_uniforms)
+                .map(|(c, u)| {
+                    let fine_dst = c.fine.as_ref().unwrap_or(&c.colors);
+                    let entries = [
+                        (0, u),
+                        (1, &runs),
+                        (2, &positions),
+                        (3, &fine),
+                        (4, &colors),
+                        (5, &c.positions),
+                        (6, fine_dst),
+                        (7, &c.colors),
+                    ];
+                    group(device, &layout, &entries)
+                })
+                .collect();
+            let tables_group = group(
+                device,
+                &self.tables.get_bind_group_layout(0),
+                &[
+                    (0, &counts),
+                    (1, &page_updates),
+                    (2, &state_updates),
+                    (3, page_table),
+                    (4, state),
+                ],
+            );
+            Staging {
+                positions,
+                fine,
+                colors,
+                runs,
+                chunk_uniforms,
+                chunk_groups,
+                page_updates,
+                state_updates,
+                counts,
+                tables_group,
+            }
+        })?;
+        self.staging = Some(staging);
+        Ok(())
+    }
+
+    /// Uploads what was packed and records the scatter passes into `enc` (before anything that
+    /// reads the pool or the tables this frame).
+    pub fn flush(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        storage: &PointStorage,
+        page_table: &wgpu::Buffer,
+        state: &wgpu::Buffer,
+    ) -> Result<(), GpuError> {
+        let has_runs = self.runs.iter().any(|r| !r.is_empty());
+        if !has_runs && self.page_updates.is_empty() && self.state_updates.is_empty() {
+            return Ok(());
+        }
+        self.ensure_capacity(ctx, storage, page_table, state)?;
+        let Some(st) = &self.staging else {
+            return Ok(());
+        };
+        let q = &ctx.queue;
+        let mut all_runs = Vec::new();
+        let mut offsets = Vec::new();
+        for list in &self.runs {
+            offsets.push((all_runs.len() as u32, list.len() as u32));
+            all_runs.extend_from_slice(list);
+        }
+        if has_runs {
+            q.write_buffer(&st.positions, 0, bytemuck::cast_slice(&self.positions));
+            if self.compact {
+                q.write_buffer(&st.fine, 0, bytemuck::cast_slice(&self.fine));
+            }
+            q.write_buffer(&st.colors, 0, bytemuck::cast_slice(&self.colors));
+            q.write_buffer(&st.runs, 0, bytemuck::cast_slice(&all_runs));
+            for ((offset, count), u) in offsets.iter().zip(&st.chunk_uniforms) {
+                let c = ChunkRuns {
+                    offset: *offset,
+                    count: *count,
+                    words: self.words as u32,
+                    has_fine: self.compact as u32,
+                };
+                q.write_buffer(u, 0, bytemuck::bytes_of(&c));
+            }
+        }
+        let n_updates = self.page_updates.len().max(self.state_updates.len()) as u32;
+        if n_updates > 0 {
+            q.write_buffer(
+                &st.page_updates,
+                0,
+                bytemuck::cast_slice(&self.page_updates),
+            );
+            q.write_buffer(
+                &st.state_updates,
+                0,
+                bytemuck::cast_slice(&self.state_updates),
+            );
+            let counts = [
+                self.page_updates.len() as u32,
+                self.state_updates.len() as u32,
+                0,
+                0,
+            ];
+            q.write_buffer(&st.counts, 0, bytemuck::cast_slice(&counts));
+        }
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("uploads"),
+                timestamp_writes: None,
+            });
+            if has_runs {
+                pass.set_pipeline(&self.scatter);
+                for ((_, count), g) in offsets.iter().zip(&st.chunk_groups) {
+                    if *count > 0 {
+                        pass.set_bind_group(0, g, &[]);
+                        let [x, y] = grid(*count);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                }
+            }
+            if n_updates > 0 {
+                pass.set_pipeline(&self.tables);
+                pass.set_bind_group(0, &st.tables_group, &[]);
+                let [x, y] = grid(n_updates.div_ceil(256));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+        self.positions.clear();
+        self.fine.clear();
+        self.colors.clear();
+        self.runs.iter_mut().for_each(Vec::clear);
+        self.page_updates.clear();
+        self.state_updates.clear();
+        Ok(())
+    }
+}
+
+fn group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|(b, buf)| wgpu::BindGroupEntry {
+            binding: *b,
+            resource: buf.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("uploads"),
+        layout,
+        entries: &entries,
+    })
+}
