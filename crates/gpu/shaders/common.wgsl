@@ -29,7 +29,8 @@ struct Frame {
     size: vec2<u32>,
     // HQS: points within this factor of the closest depth blend (the paper's 1 %).
     blend_factor: f32,
-    _pad: u32,
+    // Non-zero when some class is hidden (else no colour needs loading to decide visibility).
+    any_hidden: u32,
     // One bit per ASPRS class (the colour's alpha byte): set = hidden.
     hidden_classes: array<vec4<u32>, 2>,
 }
@@ -76,14 +77,6 @@ fn class_hidden(color: u32) -> bool {
     let c = color >> 24u;
     let word = frame.hidden_classes[c >> 7u][(c >> 5u) & 3u];
     return (word & (1u << (c & 31u))) != 0u;
-}
-
-// Pixel and depth of a fetched point; NO_PIXEL when outside the frustum or its class is hidden.
-fn hit_of(s: Sample) -> Hit {
-    if class_hidden(s.color) {
-        return Hit(NO_PIXEL, 0u);
-    }
-    return project(s.pos);
 }
 
 struct Work {

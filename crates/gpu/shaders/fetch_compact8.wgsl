@@ -8,21 +8,22 @@
 @group(0) @binding(5) var<storage, read> fine: array<u32>;
 @group(0) @binding(7) var<storage, read> colors: array<u32>;
 
-struct Sample {
-    pos: vec3<f32>,
-    color: u32,
-}
-
 fn unpack10(w: u32) -> vec3<u32> {
     return vec3<u32>(w & 0x3ffu, (w >> 10u) & 0x3ffu, (w >> 20u) & 0x3ffu);
 }
 
-fn load_point(info: DrawInfo, index: u32) -> Sample {
+// Position and colour load separately: most points fail the early depth test and never need
+// their colour.
+fn load_position(info: DrawInfo, index: u32) -> vec3<f32> {
     let c = unpack10(coarse[index]) * 1024u;
     // Without the fine word, a point sits in the middle of its coarse cell.
     var q = vec3<f32>(c) + vec3<f32>(512.0);
     if (info.flags & 1u) != 0u {
         q = vec3<f32>(c + unpack10(fine[index])) + vec3<f32>(0.5);
     }
-    return Sample(info.origin + q * info.step, colors[index]);
+    return info.origin + q * info.step;
+}
+
+fn load_color(index: u32) -> u32 {
+    return colors[index];
 }

@@ -5,13 +5,13 @@
 @group(0) @binding(4) var<storage, read> positions: array<f32>;
 @group(0) @binding(7) var<storage, read> colors: array<u32>;
 
-struct Sample {
-    pos: vec3<f32>,
-    color: u32,
+// `index` counts points from the start of this dispatch's point buffers. Position and colour
+// load separately: most points fail the early depth test and never need their colour.
+fn load_position(info: DrawInfo, index: u32) -> vec3<f32> {
+    let p = vec3<f32>(positions[index * 3u], positions[index * 3u + 1u], positions[index * 3u + 2u]);
+    return info.origin + p;
 }
 
-// `index` counts points from the start of this dispatch's point buffers.
-fn load_point(info: DrawInfo, index: u32) -> Sample {
-    let p = vec3<f32>(positions[index * 3u], positions[index * 3u + 1u], positions[index * 3u + 2u]);
-    return Sample(info.origin + p, colors[index]);
+fn load_color(index: u32) -> u32 {
+    return colors[index];
 }

@@ -5,12 +5,6 @@
 
 override PAGE_SIZE: u32 = 4096u;
 
-// Declared for common.wgsl's hit_of (this module fetches through vertex buffers instead).
-struct Sample {
-    pos: vec3<f32>,
-    color: u32,
-}
-
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) color: vec4<f32>,

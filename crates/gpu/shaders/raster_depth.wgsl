@@ -8,6 +8,13 @@ override PAGE_SIZE: u32 = 4096u;
 
 @group(1) @binding(0) var<storage, read_write> depth_buffer: array<atomic<u32>>;
 
+// True when point `index` of the dispatch's buffers belongs to a hidden class (loads its colour
+// only when some class is hidden).
+fn index_hidden(index: u32) -> bool {
+    return frame.any_hidden != 0u && class_hidden(load_color(index));
+}
+
+
 @compute @workgroup_size(WG)
 fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) lid: u32) {
@@ -16,12 +23,12 @@ fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let hit = hit_of(load_point(w.info, w.base + i));
+        let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }
         let inv = ~hit.depth_bits;
-        if atomicLoad(&depth_buffer[hit.pixel]) < inv {
+        if atomicLoad(&depth_buffer[hit.pixel]) < inv && !index_hidden(w.base + i) {
             atomicMax(&depth_buffer[hit.pixel], inv);
         }
     }

@@ -18,17 +18,20 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let s = load_point(w.info, w.base + i);
-        let hit = hit_of(s);
+        let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }
         let closest = bitcast<f32>(~atomicLoad(&depth_buffer[hit.pixel]));
         if bitcast<f32>(hit.depth_bits) <= closest * frame.blend_factor {
+            let color = load_color(w.base + i);
+            if class_hidden(color) {
+                continue;
+            }
             let at = hit.pixel * 4u;
-            atomicAdd(&sums[at], s.color & 0xffu);
-            atomicAdd(&sums[at + 1u], (s.color >> 8u) & 0xffu);
-            atomicAdd(&sums[at + 2u], (s.color >> 16u) & 0xffu);
+            atomicAdd(&sums[at], color & 0xffu);
+            atomicAdd(&sums[at + 1u], (color >> 8u) & 0xffu);
+            atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
             atomicAdd(&sums[at + 3u], 1u);
         }
     }

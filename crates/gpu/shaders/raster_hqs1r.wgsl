@@ -19,8 +19,7 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let s = load_point(w.info, w.base + i);
-        let hit = hit_of(s);
+        let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }
@@ -28,9 +27,13 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         if bitcast<f32>(hit.depth_bits) > closest * frame.blend_factor {
             continue;
         }
-        var r = u64(s.color & 0xffu);
-        var g = u64((s.color >> 8u) & 0xffu);
-        var b = u64((s.color >> 16u) & 0xffu);
+        let color = load_color(w.base + i);
+        if class_hidden(color) {
+            continue;
+        }
+        var r = u64(color & 0xffu);
+        var g = u64((color >> 8u) & 0xffu);
+        var b = u64((color >> 16u) & 0xffu);
         let old = atomicAdd(&packed[hit.pixel], (r << 48u) | (g << 32u) | (b << 16u) | 1lu);
         let count = u32(old & 0xfffflu);
         if count >= 255u {

@@ -19,13 +19,16 @@ fn color_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let s = load_point(w.info, w.base + i);
-        let hit = hit_of(s);
+        let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }
         if atomicLoad(&depth_buffer[hit.pixel]) == ~hit.depth_bits {
-            let value = select(s.color, w.slot * PAGE_SIZE + i, PICK);
+            let color = load_color(w.base + i);
+            if class_hidden(color) {
+                continue;
+            }
+            let value = select(color, w.slot * PAGE_SIZE + i, PICK);
             atomicMax(&color_buffer[hit.pixel], ~value);
         }
     }

@@ -22,16 +22,19 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
-        let s = load_point(w.info, w.base + i);
-        let hit = hit_of(s);
+        let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
         }
-        let key = point_key(hit.depth_bits, s.color);
-        // A stale read is harmless: the stored key only grows, so we merely skip a useless atomic.
-        if EARLY_Z && atomicLoad(&framebuffer[hit.pixel]) >= key {
+        // Depth alone decides most points: a strictly closer one is stored, skip (a stale read
+        // is harmless, stored keys only grow). Equal depths fall through to the colour tie rule.
+        if EARLY_Z && u32(atomicLoad(&framebuffer[hit.pixel]) >> 32u) > ~hit.depth_bits {
             continue;
         }
-        atomicMax(&framebuffer[hit.pixel], key);
+        let color = load_color(w.base + i);
+        if class_hidden(color) {
+            continue;
+        }
+        atomicMax(&framebuffer[hit.pixel], point_key(hit.depth_bits, color));
     }
 }

@@ -33,18 +33,16 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         var inv_depth = 0u;
         var color = 0u;
         if i < w.end {
-            let s = load_point(w.info, w.base + i);
-            let hit = hit_of(s);
-            if hit.pixel != NO_PIXEL {
-                pixel = hit.pixel;
-                inv_depth = ~hit.depth_bits;
-                color = s.color;
-            }
-        }
-        if EARLY_Z && pixel != NO_PIXEL {
-            let key = (u64(inv_depth) << 32u) | u64(~color);
-            if atomicLoad(&framebuffer[pixel]) >= key {
-                pixel = NO_PIXEL;
+            let hit = project(load_position(w.info, w.base + i));
+            // Early depth test on depth alone; surviving lanes fetch their colour.
+            if hit.pixel != NO_PIXEL
+                && !(EARLY_Z && u32(atomicLoad(&framebuffer[hit.pixel]) >> 32u) > ~hit.depth_bits) {
+                color = load_color(w.base + i);
+                // Hidden points must not win the reduction over visible ones.
+                if !class_hidden(color) {
+                    pixel = hit.pixel;
+                    inv_depth = ~hit.depth_bits;
+                }
             }
         }
         if MODE == 0u {

@@ -309,7 +309,7 @@ pub(crate) fn write_frame(
         ),
         size: [width, height],
         blend_factor: 1.01,
-        _pad: 0,
+        any_hidden: hidden_classes.iter().any(|w| *w != 0) as u32,
         hidden_classes: *hidden_classes,
     };
     ctx.queue

@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# The GPU benchmarks of docs/BENCHMARKS.md, run on the GPU machine (no Rust there: build here
+# with `cargo build --release -p pointlet`, copy target/release/pointlet to .dev/pointlet).
+# Usage: scripts/gpu-bench.sh PHASE OUT_DIR, PHASE one of:
+#   raster  bench-raster on 100 M generated points (issue 3)
+#   store   generate the 1 G-point lean store under /tmp (issue 4)
+#   orbit   bench along the orbit path, warm page cache, then cold (issue 4)
+#   quality PSNR of LoD images against full detail (issue 4)
+set -euo pipefail
+phase=$1
+out=$2
+bin=${POINTLET:-.dev/pointlet}
+mkdir -p "$out"
+# The GPU machine has the NVIDIA driver but not the Vulkan loader: unpack the carried one.
+if ! ldconfig -p | grep -c libvulkan.so.1 >/dev/null; then
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
+  export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+store=/tmp/bench-1g.pointlet
+case "$phase" in
+  raster)
+    nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv >"$out/gpu.txt" || true
+    "$bin" bench-raster --points 100M --frames 10 --json "$out/raster.json" 2>&1 | tee "$out/raster.txt"
+    ;;
+  store)
+    df -h /tmp >"$out/disk.txt"
+    /usr/bin/time -v "$bin" generate --points 1G --lean -o "$store" 2>&1 | tee "$out/store.txt"
+    "$bin" info "$store" | tee -a "$out/store.txt"
+    ;;
+  orbit)
+    size=$(stat -c %s "$store")
+    vram=$((size / 20))
+    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 16GiB \
+      --bucket 25M --loaders 8 --json "$out/orbit-warm.json" --plot "$out/orbit-warm.png" 2>&1 | tee "$out/orbit-warm.txt"
+    sync
+    echo 3 >/proc/sys/vm/drop_caches
+    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 16GiB \
+      --bucket 25M --loaders 8 --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
+    ;;
+  quality)
+    size=$(stat -c %s "$store")
+    "$bin" bench "$store" --quality --vram-budget $((size / 20)) --ram-budget 16GiB --loaders 8 \
+      --json "$out/quality.json" 2>&1 | tee "$out/quality.txt"
+    ;;
+  *)
+    echo "unknown phase $phase" >&2
+    exit 2
+    ;;
+esac
