@@ -33,16 +33,16 @@ case "$phase" in
   orbit)
     size=$(stat -c %s "$store")
     vram=$((size / 20))
-    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 16GiB \
+    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
       --bucket 25M --loaders 8 --json "$out/orbit-warm.json" --plot "$out/orbit-warm.png" 2>&1 | tee "$out/orbit-warm.txt"
     sync
     echo 3 >/proc/sys/vm/drop_caches
-    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 16GiB \
+    "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
       --bucket 25M --loaders 8 --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
     ;;
   quality)
     size=$(stat -c %s "$store")
-    "$bin" bench "$store" --quality --vram-budget $((size / 20)) --ram-budget 16GiB --loaders 8 \
+    "$bin" bench "$store" --quality --vram-budget $((size / 20)) --ram-budget 4GiB --loaders 8 \
       --json "$out/quality.json" 2>&1 | tee "$out/quality.txt"
     ;;
   *)
