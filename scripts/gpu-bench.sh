@@ -40,6 +40,13 @@ case "$phase" in
     "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
       --bucket 25M --loaders 8 --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
     ;;
+  diag)
+    small=/tmp/bench-200m.pointlet
+    "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1
+    size=$(stat -c %s "$small")
+    "$bin" bench "$small" --frames 600 --orbit-seconds 10 --vram-budget $((size / 20)) --ram-budget 4GiB \
+      --bucket 25M --loaders 8 --json "$out/diag.json" 2>&1 | tee "$out/diag.txt"
+    ;;
   quality)
     size=$(stat -c %s "$store")
     "$bin" bench "$store" --quality --vram-budget $((size / 20)) --ram-budget 4GiB --loaders 8 \

@@ -59,6 +59,8 @@ struct FrameRow {
     frame: u32,
     frame_ms: f64,
     residency_ms: f64,
+    /// RAM requests, window upkeep, planning, gathering from RAM, encoding, publishing.
+    residency_parts_ms: [f64; 6],
     lod_ms: f64,
     raster_ms: f64,
     screen_ms: f64,
@@ -184,6 +186,20 @@ pub fn run(args: Args) -> Result<()> {
             s.name, s.avg_ms, s.median_ms, s.max_ms
         );
     }
+    let parts = [
+        "RAM requests",
+        "window upkeep",
+        "planning",
+        "gather",
+        "encode",
+        "publish",
+    ];
+    for (k, name) in parts.iter().enumerate() {
+        let v: Vec<f64> = rows.iter().map(|r| r.residency_parts_ms[k]).collect();
+        let avg = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        let max = v.iter().cloned().fold(0.0, f64::max);
+        println!("    residency: {name:<14} avg {avg:>8.3}  max {max:>8.3}");
+    }
     println!(
         "memory: GPU {} allocated of a {} budget; RAM cache peak {} of {}; {} read from disk",
         pointlet_core::size::format_bytes(
@@ -227,6 +243,7 @@ fn row(frame: u32, r: &FrameReport, read_before: &mut u64) -> FrameRow {
         frame,
         frame_ms: 0.0,
         residency_ms: r.residency_ms,
+        residency_parts_ms: r.residency_parts_ms,
         lod_ms: 0.0,
         raster_ms: 0.0,
         screen_ms: 0.0,

@@ -120,7 +120,7 @@ pub struct VirtualArgs {
     #[arg(long, value_parser = crate::parse_bytes_arg)]
     pub ram_budget: Option<u64>,
     /// Points moved from RAM to the GPU per frame at most.
-    #[arg(long, default_value = "4M", value_parser = crate::parse_count_arg)]
+    #[arg(long, default_value = "1M", value_parser = crate::parse_count_arg)]
     pub upload_per_frame: u64,
     /// Points per GPU page of the virtualized pool.
     #[arg(long, default_value_t = 256)]

@@ -29,6 +29,8 @@ pub struct ResidencySet {
     windows: Vec<Window>,
     dirty: Vec<u32>,
     is_dirty: Vec<bool>,
+    /// Pages given a slot since the last take: (pointlet, page index, slot).
+    new_pages: Vec<[u32; 3]>,
 }
 
 impl ResidencySet {
@@ -41,6 +43,7 @@ impl ResidencySet {
             windows: vec![Window::default(); pointlets],
             dirty: Vec::new(),
             is_dirty: vec![false; pointlets],
+            new_pages: Vec::new(),
         }
     }
 
@@ -60,10 +63,6 @@ impl ResidencySet {
         self.free.len()
     }
 
-    pub fn touch(&mut self, i: usize, frame: u64) {
-        self.windows[i].last_used = frame;
-    }
-
     fn mark(&mut self, i: usize) {
         if !self.is_dirty[i] {
             self.is_dirty[i] = true;
@@ -81,7 +80,10 @@ impl ResidencySet {
         }
         let slot = self.free.pop()?;
         self.owner[slot as usize] = i as u32;
-        self.windows[i].slots.push_back(slot);
+        let w = &mut self.windows[i];
+        let page = w.lo / self.page_size + w.slots.len() as u32;
+        w.slots.push_back(slot);
+        self.new_pages.push([i as u32, page, slot]);
         self.mark(i);
         Some(slot)
     }
@@ -176,6 +178,24 @@ impl ResidencySet {
         let k = w.slots.iter().position(|s| *s == slot)? as u32;
         let index = w.lo + k * self.page_size + local;
         (index < w.hi).then_some((i as usize, index))
+    }
+
+    /// Pages given a slot since the last call, to publish: (pointlet, page index, slot).
+    pub fn take_new_pages(&mut self) -> Vec<[u32; 3]> {
+        std::mem::take(&mut self.new_pages)
+    }
+
+    /// Marks every requested pointlet as used in `frame` (in parallel: runs over all of them).
+    pub fn touch_requested(&mut self, requested: &[u32], frame: u64) {
+        use rayon::prelude::*;
+        self.windows
+            .par_iter_mut()
+            .zip(requested.par_iter())
+            .for_each(|(w, r)| {
+                if *r > 0 {
+                    w.last_used = frame;
+                }
+            });
     }
 
     /// Pointlets changed since the last call, to publish to the GPU.

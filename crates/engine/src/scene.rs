@@ -9,7 +9,7 @@ use crate::EngineError;
 use pointlet_core::color::ColorMode;
 use pointlet_core::{Aabb, Camera, Quantization};
 use pointlet_gpu::{
-    GpuContext, PageWrite, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
+    GpuContext, PageJob, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
     RenderTarget, Renderer,
 };
 use pointlet_store::Store;
@@ -45,7 +45,7 @@ impl Default for SceneConfig {
             encoding: PointEncoding::Compact8,
             page_size: 256,
             loaders: 4,
-            upload_per_frame: 4 << 20,
+            upload_per_frame: 1 << 20,
             color: ColorMode::Rgb,
         }
     }
@@ -57,6 +57,9 @@ pub struct FrameReport {
     pub frame: u64,
     /// CPU time of the residency step (feedback, requests, uploads, evictions).
     pub residency_ms: f64,
+    /// Its parts: RAM requests, window upkeep, planning, gathering from RAM, encoding,
+    /// publishing.
+    pub residency_parts_ms: [f64; 6],
     pub points_uploaded: u64,
     pub bytes_uploaded: u64,
     pub pages_evicted: u64,
@@ -357,13 +360,13 @@ impl VirtualScene {
             &PagedView { bucket, accumulate },
             target,
         )?;
-        report.requested_points = self.requested.iter().map(|v| *v as u64).sum();
-        report.drawn_points = self.drawn.iter().map(|v| *v as u64).sum();
+        report.requested_points = self.requested.par_iter().map(|v| *v as u64).sum();
+        report.drawn_points = self.drawn.par_iter().map(|v| *v as u64).sum();
         report.pages_resident = self.residency.resident_pages(self.slots);
         report.gpu_points = self
             .residency
             .windows()
-            .iter()
+            .par_iter()
             .map(|w| w.points() as u64)
             .sum();
         report.converged = self.converged();
@@ -383,9 +386,9 @@ impl VirtualScene {
         self.feedback_frame >= since
             && self
                 .requested
-                .iter()
-                .zip(&self.drawn)
-                .zip(&self.counts)
+                .par_iter()
+                .zip(self.drawn.par_iter())
+                .zip(self.counts.par_iter())
                 .all(|((r, d), c)| (*r == 0 || r == c) && d >= r)
     }
 
@@ -396,10 +399,18 @@ impl VirtualScene {
         // RAM holds what the GPU does not: points below a window's end are on the GPU (or, while
         // still, drawn), so under pressure RAM drops them first and a RAM budget smaller than
         // the view still lets every point through. Windows that must restart from 0 keep all.
+        let mut clock = Instant::now();
+        let mut lap = |k: usize, report: &mut FrameReport| {
+            report.residency_parts_ms[k] = clock.elapsed().as_secs_f64() * 1e3;
+            clock = Instant::now();
+        };
+        let windows = self.residency.windows();
+        let (gpu_epoch, epoch) = (&self.gpu_epoch, self.epoch);
         let keep: Vec<u32> = (0..n)
+            .into_par_iter()
             .map(|i| {
-                let w = self.residency.window(i);
-                if self.gpu_epoch[i] != self.epoch {
+                let w = &windows[i];
+                if gpu_epoch[i] != epoch {
                     // Its GPU colours are stale: RAM must bring the window back to recolour it.
                     w.lo
                 } else if w.lo == 0 || accumulate {
@@ -410,13 +421,20 @@ impl VirtualScene {
             })
             .collect();
         self.cache.request_window(&self.requested, &keep);
+        lap(0, report);
         // GPU: drawing a moving view needs prefixes, so windows that lost their front while
         // the camera was still start over.
-        for i in 0..n {
-            if self.requested[i] > 0 {
-                self.residency.touch(i, frame);
-            }
-            if !accumulate && self.residency.window(i).lo > 0 {
+        self.residency.touch_requested(&self.requested, frame);
+        if !accumulate {
+            let restart: Vec<usize> = self
+                .residency
+                .windows()
+                .par_iter()
+                .enumerate()
+                .filter(|(_, w)| w.lo > 0)
+                .map(|(i, _)| i)
+                .collect();
+            for i in restart {
                 report.pages_evicted += self.residency.clear(i, 0) as u64;
             }
         }
@@ -428,22 +446,25 @@ impl VirtualScene {
                 .is_some_and(|since| self.feedback_frame >= since);
         let mut budget = self.config.upload_per_frame;
         self.recolor_stale(&mut budget, report);
+        lap(1, report);
         // Most starved first: the smallest share of its request resident.
-        self.order.clear();
-        for i in 0..n {
-            let w = self.residency.window(i);
-            let want = self.requested[i];
-            let held = self.cache.held(i);
-            let fresh = self.gpu_epoch[i] == self.epoch;
-            if fresh && want > w.hi && held.start <= w.hi && held.end > w.hi {
-                self.order.push((w.hi as f64 / want as f64, i as u32));
-            }
-        }
-        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let (windows, requested, cache) = (self.residency.windows(), &self.requested, &self.cache);
+        let (gpu_epoch, epoch) = (&self.gpu_epoch, self.epoch);
+        self.order = (0..n)
+            .into_par_iter()
+            .filter_map(|i| {
+                let (w, want) = (&windows[i], requested[i]);
+                let held = cache.held(i);
+                let fresh = gpu_epoch[i] == epoch;
+                (fresh && want > w.hi && held.start <= w.hi && held.end > w.hi)
+                    .then_some((w.hi as f64 / want as f64, i as u32))
+            })
+            .collect();
+        self.order.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut victims: Option<Vec<u32>> = None;
         let order = std::mem::take(&mut self.order);
         // Plan: slots and ranges, serially (allocation and eviction decisions).
-        let mut jobs: Vec<(u32, u32, u32, u32)> = Vec::new();
+        let mut jobs: Vec<PageJob> = Vec::new();
         'pointlets: for (_, i) in &order {
             let i = *i as usize;
             let target_hi = self.requested[i].min(self.cache.held(i).end);
@@ -452,7 +473,8 @@ impl VirtualScene {
                 let slot = match self.residency.slot_for_next(i) {
                     Some(s) => s,
                     None => {
-                        let v = victims.get_or_insert_with(|| self.victims(drawn_valid));
+                        let want = (budget / ps as u64 + 1) as usize;
+                        let v = victims.get_or_insert_with(|| self.victims(drawn_valid, want));
                         if !self.evict_one(v, i, drawn_valid, report) {
                             break 'pointlets;
                         }
@@ -463,7 +485,12 @@ impl VirtualScene {
                 let end = target_hi
                     .min(page_end)
                     .min(hi + budget.min(u32::MAX as u64) as u32);
-                jobs.push((i as u32, slot, hi, end));
+                jobs.push(PageJob {
+                    pointlet: i as u32,
+                    slot,
+                    first_point: hi,
+                    count: end - hi,
+                });
                 self.residency.extend(i, end);
                 budget = budget.saturating_sub((end - hi) as u64);
             }
@@ -472,50 +499,42 @@ impl VirtualScene {
             }
         }
         self.order = order;
-        // Gather and dequantize in parallel: the RAM cache holds these ranges until the next
-        // request (this thread's), so nothing planned goes missing.
+        lap(2, report);
+        lap(3, report);
+        // Gather and encode in parallel, straight from the RAM cache's integers: the cache holds
+        // these ranges until the next request (this thread's), so nothing planned goes missing.
         let q = self.quantization;
         let cache = &self.cache;
-        let data: Vec<(Vec<[f64; 3]>, Vec<u32>)> = jobs
-            .par_iter()
-            .map(|&(i, _, lo, hi)| {
-                cache
-                    .with_points(i as usize, lo..hi, |first, raw, colors| {
-                        if first != lo {
-                            return (Vec::new(), Vec::new());
-                        }
-                        let positions = raw.iter().map(|p| q.dequantize(*p)).collect();
-                        (positions, colors.to_vec())
-                    })
-                    .unwrap_or_default()
-            })
-            .collect();
-        let mut pages = Vec::with_capacity(jobs.len());
-        for (&(i, slot, lo, hi), (positions, colors)) in jobs.iter().zip(&data) {
-            let got = positions.len() as u32;
-            if got < hi - lo {
+        let written = self.paged.write_jobs(&jobs, |k, sink| {
+            let j = &jobs[k];
+            let range = j.first_point..j.first_point + j.count;
+            cache.with_points(j.pointlet as usize, range, |first, raw, colors| {
+                if first == j.first_point {
+                    sink.put_raw(raw, &q, colors);
+                }
+            });
+        });
+        for (j, got) in jobs.iter().zip(&written) {
+            if *got < j.count {
                 // Should not happen (see above); keep the window honest if it does.
-                report.pages_evicted += self.residency.trim_tail(i as usize, lo + got) as u64;
+                let end = j.first_point + got;
+                report.pages_evicted += self.residency.trim_tail(j.pointlet as usize, end) as u64;
             }
-            if got > 0 {
-                pages.push(PageWrite {
-                    pointlet: i,
-                    slot,
-                    first_point: lo,
-                    positions,
-                    colors,
-                });
-                report.points_uploaded += got as u64;
-            }
+            report.points_uploaded += *got as u64;
         }
-        self.paged.write_pages(&pages);
+        lap(4, report);
         report.bytes_uploaded +=
             report.points_uploaded * self.config.encoding.resident_bytes_per_point();
+        // Only what changed: new pages' table entries and the ranges of changed pointlets (pages
+        // that stay keep their entries when a window's front moves).
+        for [i, page, slot] in self.residency.take_new_pages() {
+            self.paged.set_page(i, page, slot);
+        }
         for i in self.residency.take_dirty() {
             let w = self.residency.window(i as usize);
-            let slots: Vec<u32> = w.slots.iter().copied().collect();
-            self.paged.set_residency(i, w.lo, w.hi, &slots);
+            self.paged.set_state(i, w.lo, w.hi);
         }
+        lap(5, report);
     }
 
     /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their
@@ -552,19 +571,27 @@ impl VirtualScene {
     /// Pointlets whose pages may go, best victims last (popped first): not requested, least
     /// recently used; then those holding more than requested; then (with `drawn_valid`, the
     /// camera still) those with pages already drawn into the kept framebuffer.
-    fn victims(&self, drawn_valid: bool) -> Vec<u32> {
+    fn victims(&self, drawn_valid: bool, want: usize) -> Vec<u32> {
         let ps = self.config.page_size;
+        let requested = &self.requested;
+        let drawn = &self.drawn;
         let mut v: Vec<(u8, u64, u32)> = self
             .residency
             .windows()
-            .iter()
+            .par_iter()
             .enumerate()
             .filter(|(i, w)| {
                 !w.slots.is_empty()
-                    && (w.hi > self.requested[*i] || (drawn_valid && w.lo + ps <= self.drawn[*i]))
+                    && (w.hi > requested[*i] || (drawn_valid && w.lo + ps <= drawn[*i]))
             })
-            .map(|(i, w)| ((self.requested[i] > 0) as u8, w.last_used, i as u32))
+            .map(|(i, w)| ((requested[i] > 0) as u8, w.last_used, i as u32))
             .collect();
+        // Only the best `want` pointlets can be needed this frame (each gives a page at least):
+        // select them instead of sorting all.
+        if v.len() > want {
+            v.select_nth_unstable(want);
+            v.truncate(want);
+        }
         // Popped from the back: unrequested before partly requested, older before newer.
         v.sort_unstable_by(|a, b| b.cmp(a));
         v.into_iter().map(|(_, _, i)| i).collect()

@@ -30,7 +30,7 @@ pub use storage::{
     COMPACT_STEPS,
 };
 pub use target::RenderTarget;
-pub use upload::PageWrite;
+pub use upload::{PageJob, PageSink, PageWrite};
 
 use thiserror::Error;
 

@@ -8,7 +8,7 @@ use crate::context::GpuContext;
 use crate::storage::{
     DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
-use crate::upload::{PageWrite, UploadQueue};
+use crate::upload::{PageJob, PageSink, PageWrite, UploadQueue};
 use crate::{shaders, GpuError};
 use bytemuck::{Pod, Zeroable};
 use pointlet_core::{Aabb, Camera};
@@ -406,6 +406,29 @@ impl PagedCloud {
     /// with the next frame, in one batch.
     pub fn write_pages(&mut self, pages: &[PageWrite<'_>]) {
         self.uploads.write_pages(pages, &self.boxes, self.encoding);
+    }
+
+    /// Queues `jobs`, each encoded by `fill(k, sink)` (in parallel); returns the points each
+    /// delivered. The cheap path for streaming: encode straight from a cache's integers.
+    pub fn write_jobs(
+        &mut self,
+        jobs: &[PageJob],
+        fill: impl Fn(usize, &mut PageSink<'_>) + Sync,
+    ) -> Vec<u32> {
+        self.uploads
+            .write_jobs(jobs, &self.boxes, self.encoding, fill)
+    }
+
+    /// Publishes (with the next frame) that page `page` of `pointlet` lives in `slot`.
+    pub fn set_page(&mut self, pointlet: u32, page: u32, slot: u32) {
+        self.uploads
+            .set_page(pointlet * self.max_pages + page, slot);
+    }
+
+    /// Publishes (with the next frame) that points `lo..hi` of `pointlet` are resident (their
+    /// pages published with [`set_page`](Self::set_page)).
+    pub fn set_state(&mut self, pointlet: u32, lo: u32, hi: u32) {
+        self.uploads.set_state(pointlet, lo, hi);
     }
 
     /// Queues new colours for points `first_point..` in `slot` (recolouring: positions stay).

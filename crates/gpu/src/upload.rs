@@ -5,10 +5,10 @@
 use crate::context::GpuContext;
 use crate::raster::grid;
 use crate::shaders;
-use crate::storage::{compact_step, encode_positions, PointEncoding, PointStorage};
+use crate::storage::{compact_step, quantize_compact, PointEncoding, PointStorage};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use pointlet_core::Aabb;
+use pointlet_core::{Aabb, Quantization};
 use rayon::prelude::*;
 
 /// Points `first_point..` of a pointlet (absolute coordinates) going into one page slot; the
@@ -19,6 +19,64 @@ pub struct PageWrite<'a> {
     pub first_point: u32,
     pub positions: &'a [[f64; 3]],
     pub colors: &'a [u32],
+}
+
+/// A page run to fill (see [`UploadQueue::write_jobs`]): `count` points from `first_point`
+/// of `pointlet` into `slot`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PageJob {
+    pub pointlet: u32,
+    pub slot: u32,
+    pub first_point: u32,
+    pub count: u32,
+}
+
+/// Where one job's points go: its slices of the staging streams. Fill it once.
+pub struct PageSink<'a> {
+    positions: &'a mut [u32],
+    fine: &'a mut [u32],
+    colors: &'a mut [u32],
+    origin: [f64; 3],
+    step: [f64; 3],
+    encoding: PointEncoding,
+    written: u32,
+}
+
+impl PageSink<'_> {
+    /// Encodes absolute positions (at most the job's count).
+    pub fn put(&mut self, positions: &[[f64; 3]], colors: &[u32]) {
+        let n = positions.len().min(colors.len()).min(self.colors.len());
+        self.put_with(n, |k| positions[k], &colors[..n]);
+    }
+
+    /// Encodes quantized positions (`value = raw × scale + offset`), straight from a cache.
+    pub fn put_raw(&mut self, raw: &[[i32; 3]], q: &Quantization, colors: &[u32]) {
+        let n = raw.len().min(colors.len()).min(self.colors.len());
+        self.put_with(n, |k| q.dequantize(raw[k]), &colors[..n]);
+    }
+
+    fn put_with(&mut self, n: usize, position: impl Fn(usize) -> [f64; 3], colors: &[u32]) {
+        let (o, st) = (self.origin, self.step);
+        match self.encoding {
+            PointEncoding::Full16 => {
+                for k in 0..n {
+                    let p = position(k);
+                    for a in 0..3 {
+                        self.positions[k * 3 + a] = ((p[a] - o[a]) as f32).to_bits();
+                    }
+                }
+            }
+            PointEncoding::Compact8 => {
+                for k in 0..n {
+                    let q = quantize_compact(position(k), o, st);
+                    self.positions[k] = (q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20;
+                    self.fine[k] = (q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20;
+                }
+            }
+        }
+        self.colors[..n].copy_from_slice(colors);
+        self.written = n as u32;
+    }
 }
 
 #[repr(C)]
@@ -130,76 +188,99 @@ impl UploadQueue {
         boxes: &[Aabb],
         encoding: PointEncoding,
     ) {
-        let base = self.colors.len();
-        let counts: Vec<usize> = pages
+        let jobs: Vec<PageJob> = pages
             .iter()
-            .map(|p| p.positions.len().min(p.colors.len()))
+            .map(|p| PageJob {
+                pointlet: p.pointlet,
+                slot: p.slot,
+                first_point: p.first_point,
+                count: p.positions.len().min(p.colors.len()) as u32,
+            })
             .collect();
-        let total: usize = counts.iter().sum();
+        self.write_jobs(&jobs, boxes, encoding, |k, sink| {
+            sink.put(pages[k].positions, pages[k].colors)
+        });
+    }
+
+    /// Reserves staging for `jobs` and lets `fill(k, sink)` encode job k's points, all jobs in
+    /// parallel. Returns the points each job wrote (a fill may deliver fewer than asked).
+    pub fn write_jobs(
+        &mut self,
+        jobs: &[PageJob],
+        boxes: &[Aabb],
+        encoding: PointEncoding,
+        fill: impl Fn(usize, &mut PageSink<'_>) + Sync,
+    ) -> Vec<u32> {
+        let base = self.colors.len();
+        let total: usize = jobs.iter().map(|j| j.count as usize).sum();
+        let words = self.words;
         self.positions
-            .resize(self.positions.len() + total * self.words, 0);
+            .resize(self.positions.len() + total * words, 0);
         if self.compact {
             self.fine.resize(self.fine.len() + total, 0);
         }
         self.colors.resize(base + total, 0);
-        // Disjoint output slices, one per page, then encode them all at once.
-        let words = self.words;
-        let dsts: Vec<(usize, u32)> = pages
-            .iter()
-            .map(|p| self.dst(p.slot, p.first_point))
-            .collect();
+        // Disjoint output slices, one per job.
+        let compact = self.compact;
         let mut pos_rest = &mut self.positions[base * words..];
-        let mut fine_rest: &mut [u32] = if self.compact {
+        let mut fine_rest: &mut [u32] = if compact {
             &mut self.fine[base..]
         } else {
             &mut []
         };
         let mut col_rest = &mut self.colors[base..];
-        let mut jobs = Vec::with_capacity(pages.len());
-        let mut src = base as u32;
-        for ((page, n), (chunk, dst)) in pages.iter().zip(&counts).zip(dsts) {
+        let mut sinks = Vec::with_capacity(jobs.len());
+        for job in jobs {
+            let n = job.count as usize;
             let (p, r) = std::mem::take(&mut pos_rest).split_at_mut(n * words);
             pos_rest = r;
-            let f = if self.compact {
-                let (f, r) = std::mem::take(&mut fine_rest).split_at_mut(*n);
+            let f = if compact {
+                let (f, r) = std::mem::take(&mut fine_rest).split_at_mut(n);
                 fine_rest = r;
                 f
             } else {
                 &mut []
             };
-            let (c, r) = std::mem::take(&mut col_rest).split_at_mut(*n);
+            let (c, r) = std::mem::take(&mut col_rest).split_at_mut(n);
             col_rest = r;
-            jobs.push((page, *n, p, f, c));
-            if let Some(list) = self.runs.get_mut(chunk) {
-                list.push(Run {
-                    dst,
-                    src,
-                    count: *n as u32,
-                    flags: 0,
-                });
-            }
-            src += *n as u32;
-        }
-        jobs.into_par_iter().for_each(|(page, n, p, f, c)| {
-            let Some(b) = boxes.get(page.pointlet as usize) else {
-                return;
-            };
-            let mut main = Vec::with_capacity(n * words);
-            let mut fine = Vec::with_capacity(n);
-            encode_positions(
-                &page.positions[..n],
-                b.min,
-                compact_step(b.extent()),
+            let b = boxes.get(job.pointlet as usize).copied().unwrap_or(Aabb {
+                min: [0.0; 3],
+                max: [0.0; 3],
+            });
+            sinks.push(PageSink {
+                positions: p,
+                fine: f,
+                colors: c,
+                origin: b.min,
+                step: compact_step(b.extent()),
                 encoding,
-                &mut main,
-                &mut fine,
-            );
-            p.copy_from_slice(&main);
-            if !f.is_empty() {
-                f.copy_from_slice(&fine);
+                written: 0,
+            });
+        }
+        let written: Vec<u32> = sinks
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, mut sink)| {
+                fill(k, &mut sink);
+                sink.written
+            })
+            .collect();
+        let mut src = base as u32;
+        for (job, n) in jobs.iter().zip(&written) {
+            let (chunk, dst) = self.dst(job.slot, job.first_point);
+            if *n > 0 {
+                if let Some(list) = self.runs.get_mut(chunk) {
+                    list.push(Run {
+                        dst,
+                        src,
+                        count: *n,
+                        flags: 0,
+                    });
+                }
             }
-            c.copy_from_slice(&page.colors[..n]);
-        });
+            src += job.count;
+        }
+        written
     }
 
     /// Packs new colours for points `first_point..` of `slot` (positions stay).

@@ -1,6 +1,7 @@
 //! The RAM cache of pointlet prefixes and its loader threads.
 
 use crate::source::{PointletData, PointletSource, SourceError, BYTES_PER_POINT};
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering::*};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex};
@@ -45,6 +46,10 @@ pub struct CacheStats {
     pub queued: usize,
     pub read_errors: u64,
 }
+
+/// What a request pass found for a pointlet.
+const LOAD: u8 = 1;
+const UNLOAD: u8 = 2;
 
 #[derive(Clone, Copy, Debug)]
 enum Task {
@@ -167,25 +172,41 @@ impl<S: PointletSource> RamCache<S> {
         let Some(tx) = &self.tx else { return };
         let budget = sh.config.ram_budget as f64;
         let pressure = sh.ram_used.load(Relaxed) as f64 > budget * sh.config.pressure;
-        let mut surplus: Vec<(u64, u32)> = Vec::new();
-        let mut loads: Vec<u32> = Vec::new();
-        for (i, w) in wanted.iter().enumerate().take(sh.slots.len()) {
-            let w = (*w).min(sh.source.pointlet_len(i));
-            let keep = keep_from.get(i).copied().unwrap_or(0).min(w);
-            sh.wanted[i].store(w, Relaxed);
-            sh.keep_from[i].store(keep, Relaxed);
-            if w > 0 {
-                sh.last_wanted[i].store(self.frame, Relaxed);
-            }
-            let have = sh.loaded[i].load(Acquire);
-            let from = sh.held_from[i].load(Acquire);
-            let gap = keep < from && w > keep;
-            if (w > have || gap) && !sh.load_queued[i].load(Acquire) {
-                loads.push(i as u32);
-            } else if (w < have || keep > from) && pressure && !sh.unload_queued[i].load(Acquire) {
-                surplus.push((sh.last_wanted[i].load(Relaxed), i as u32));
-            }
-        }
+        let frame = self.frame;
+        let n = wanted.len().min(sh.slots.len());
+        // One pass over all pointlets, in parallel: each touches only its own atomics.
+        let marks: Vec<u8> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let w = wanted[i].min(sh.source.pointlet_len(i));
+                let keep = keep_from.get(i).copied().unwrap_or(0).min(w);
+                sh.wanted[i].store(w, Relaxed);
+                sh.keep_from[i].store(keep, Relaxed);
+                if w > 0 {
+                    sh.last_wanted[i].store(frame, Relaxed);
+                }
+                let have = sh.loaded[i].load(Acquire);
+                let from = sh.held_from[i].load(Acquire);
+                let gap = keep < from && w > keep;
+                if (w > have || gap) && !sh.load_queued[i].load(Acquire) {
+                    LOAD
+                } else if (w < have || keep > from)
+                    && pressure
+                    && !sh.unload_queued[i].load(Acquire)
+                {
+                    UNLOAD
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let loads: Vec<u32> = (0..n as u32)
+            .filter(|i| marks[*i as usize] == LOAD)
+            .collect();
+        let mut surplus: Vec<(u64, u32)> = (0..n as u32)
+            .filter(|i| marks[*i as usize] == UNLOAD)
+            .map(|i| (sh.last_wanted[i as usize].load(Relaxed), i))
+            .collect();
         // Under pressure, unloads go first (stalest first): they make room for the loads.
         if pressure {
             surplus.sort_unstable();
