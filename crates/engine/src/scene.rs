@@ -161,7 +161,7 @@ impl VirtualScene {
         }
         let slots = slots.min(u32::MAX as u64 / 2) as u32;
         let paged = PagedCloud::new(ctx, descs.clone(), config.encoding, config.page_size, slots)?;
-        let source = StoreSource::new(store.clone(), config.color)?;
+        let source = StoreSource::new(store.clone(), config.color, config.encoding)?;
         let cache = RamCache::new(
             source,
             CacheConfig {
@@ -501,16 +501,16 @@ impl VirtualScene {
         self.order = order;
         lap(2, report);
         lap(3, report);
-        // Gather and encode in parallel, straight from the RAM cache's integers: the cache holds
-        // these ranges until the next request (this thread's), so nothing planned goes missing.
-        let q = self.quantization;
+        // Copy into the upload staging in parallel; loaders already encoded the points. The
+        // cache holds these ranges until the next request (this thread's), so nothing planned
+        // goes missing.
         let cache = &self.cache;
         let written = self.paged.write_jobs(&jobs, |k, sink| {
             let j = &jobs[k];
             let range = j.first_point..j.first_point + j.count;
-            cache.with_points(j.pointlet as usize, range, |first, raw, colors| {
+            cache.with_points(j.pointlet as usize, range, |first, words, colors| {
                 if first == j.first_point {
-                    sink.put_raw(raw, &q, colors);
+                    sink.put_words(words, colors);
                 }
             });
         });

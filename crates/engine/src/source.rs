@@ -1,8 +1,11 @@
-//! Reads pointlet ranges from a store for the RAM cache: quantized positions plus one RGBA8
-//! colour per point, computed from the attribute the user colours by.
+//! Reads pointlet ranges from a store for the RAM cache: positions already encoded for the GPU
+//! (relative to the pointlet's box, in the pool's encoding) plus one RGBA8 colour per point,
+//! computed from the attribute the user colours by. Encoding here, in the loader threads, leaves
+//! the render thread nothing but copies.
 
 use pointlet_core::color::{point_color, ColorMode, ColorScale};
 use pointlet_core::{PointBatch, PointLayout};
+use pointlet_gpu::{compact_step, encode_point, PointEncoding};
 use pointlet_store::{Store, StreamKind};
 use pointlet_stream::{PointletData, PointletSource, SourceError};
 use std::ops::Range;
@@ -10,6 +13,7 @@ use std::sync::{Arc, RwLock};
 
 pub struct StoreSource {
     store: Arc<Store>,
+    encoding: PointEncoding,
     /// Swapped when the user colours by another attribute; loaders read it per range.
     scale: RwLock<ColorScale>,
 }
@@ -38,10 +42,15 @@ pub fn has_attribute(layout: &PointLayout, mode: ColorMode) -> bool {
 
 impl StoreSource {
     /// Colours by `mode`, with ranges fitted by [`fit_scale`].
-    pub fn new(store: Arc<Store>, mode: ColorMode) -> Result<Self, pointlet_store::StoreError> {
+    pub fn new(
+        store: Arc<Store>,
+        mode: ColorMode,
+        encoding: PointEncoding,
+    ) -> Result<Self, pointlet_store::StoreError> {
         let scale = fit_scale(&store, mode)?;
         Ok(Self {
             store,
+            encoding,
             scale: RwLock::new(scale),
         })
     }
@@ -124,9 +133,18 @@ impl PointletSource for StoreSource {
             .store
             .read_positions(i, range.clone())
             .map_err(|e| self.error(i, &range, e))?;
-        let colors = self.colors(i, range)?;
+        let colors = self.colors(i, range.clone())?;
+        let Some(entry) = self.store.pointlets().get(i) else {
+            return Err(self.error(i, &range, "no such pointlet"));
+        };
+        let q = self.store.header().quantization;
+        let (origin, step) = (entry.aabb.min, compact_step(entry.aabb.extent()));
+        out.positions.extend(
+            positions
+                .iter()
+                .map(|p| encode_point(q.dequantize(*p), origin, step, self.encoding)),
+        );
         out.attribute.extend_from_slice(&colors);
-        out.positions.extend_from_slice(&positions);
         Ok(())
     }
 }

@@ -26,8 +26,8 @@ pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use screen::{EdlSettings, OcclusionSettings, ScreenSettings};
 pub use storage::{
-    compact_step, decode_compact, encode_positions, needs_fine, quantize_compact, PointEncoding,
-    COMPACT_STEPS,
+    compact_step, decode_compact, encode_point, encode_positions, needs_fine, quantize_compact,
+    PointEncoding, COMPACT_STEPS,
 };
 pub use target::RenderTarget;
 pub use upload::{PageJob, PageSink, PageWrite};

@@ -92,6 +92,28 @@ pub fn needs_fine(origin: [f64; 3], extent: [f64; 3], eye: [f64; 3], focal_px: f
     cell * focal_px > 0.5 * d2.sqrt()
 }
 
+/// One point's position words as the streams store them: Full16 `[x, y, z]` f32 bits relative
+/// to `origin`; Compact8 `[coarse, fine, 0]`. Loaders encode with this, so the render thread
+/// only copies words.
+pub fn encode_point(
+    p: [f64; 3],
+    origin: [f64; 3],
+    step: [f64; 3],
+    encoding: PointEncoding,
+) -> [u32; 3] {
+    match encoding {
+        PointEncoding::Full16 => [0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()),
+        PointEncoding::Compact8 => {
+            let q = quantize_compact(p, origin, step);
+            [
+                (q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20,
+                (q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20,
+                0,
+            ]
+        }
+    }
+}
+
 /// Encodes positions into the position stream (u32 words: 3 per point for Full16, 1 for
 /// Compact8) and, for Compact8, the fine stream, relative to a box `origin` (and its compact
 /// `step`). Colours need no encoding: they are uploaded as they are.
@@ -103,17 +125,13 @@ pub fn encode_positions(
     main: &mut Vec<u32>,
     fine: &mut Vec<u32>,
 ) {
-    match encoding {
-        PointEncoding::Full16 => {
-            for p in positions {
-                main.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
-            }
-        }
-        PointEncoding::Compact8 => {
-            for p in positions {
-                let q = quantize_compact(*p, origin, step);
-                main.push((q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20);
-                fine.push((q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20);
+    for p in positions {
+        let w = encode_point(*p, origin, step, encoding);
+        match encoding {
+            PointEncoding::Full16 => main.extend_from_slice(&w),
+            PointEncoding::Compact8 => {
+                main.push(w[0]);
+                fine.push(w[1]);
             }
         }
     }

@@ -5,10 +5,10 @@
 use crate::context::GpuContext;
 use crate::raster::grid;
 use crate::shaders;
-use crate::storage::{compact_step, quantize_compact, PointEncoding, PointStorage};
+use crate::storage::{compact_step, encode_point, PointEncoding, PointStorage};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use pointlet_core::{Aabb, Quantization};
+use pointlet_core::Aabb;
 use rayon::prelude::*;
 
 /// Points `first_point..` of a pointlet (absolute coordinates) going into one page slot; the
@@ -45,36 +45,31 @@ pub struct PageSink<'a> {
 impl PageSink<'_> {
     /// Encodes absolute positions (at most the job's count).
     pub fn put(&mut self, positions: &[[f64; 3]], colors: &[u32]) {
-        let n = positions.len().min(colors.len()).min(self.colors.len());
-        self.put_with(n, |k| positions[k], &colors[..n]);
+        let (o, st, e) = (self.origin, self.step, self.encoding);
+        let words: Vec<[u32; 3]> = positions
+            .iter()
+            .map(|p| encode_point(*p, o, st, e))
+            .collect();
+        self.put_words(&words, colors);
     }
 
-    /// Encodes quantized positions (`value = raw × scale + offset`), straight from a cache.
-    pub fn put_raw(&mut self, raw: &[[i32; 3]], q: &Quantization, colors: &[u32]) {
-        let n = raw.len().min(colors.len()).min(self.colors.len());
-        self.put_with(n, |k| q.dequantize(raw[k]), &colors[..n]);
-    }
-
-    fn put_with(&mut self, n: usize, position: impl Fn(usize) -> [f64; 3], colors: &[u32]) {
-        let (o, st) = (self.origin, self.step);
+    /// Copies points already encoded by [`encode_point`] (e.g. by loader threads).
+    pub fn put_words(&mut self, words: &[[u32; 3]], colors: &[u32]) {
+        let n = words.len().min(colors.len()).min(self.colors.len());
         match self.encoding {
             PointEncoding::Full16 => {
-                for k in 0..n {
-                    let p = position(k);
-                    for a in 0..3 {
-                        self.positions[k * 3 + a] = ((p[a] - o[a]) as f32).to_bits();
-                    }
+                for (out, w) in self.positions.chunks_exact_mut(3).zip(&words[..n]) {
+                    out.copy_from_slice(w);
                 }
             }
             PointEncoding::Compact8 => {
                 for k in 0..n {
-                    let q = quantize_compact(position(k), o, st);
-                    self.positions[k] = (q[0] >> 10) | (q[1] >> 10) << 10 | (q[2] >> 10) << 20;
-                    self.fine[k] = (q[0] & 1023) | (q[1] & 1023) << 10 | (q[2] & 1023) << 20;
+                    self.positions[k] = words[k][0];
+                    self.fine[k] = words[k][1];
                 }
             }
         }
-        self.colors[..n].copy_from_slice(colors);
+        self.colors[..n].copy_from_slice(&colors[..n]);
         self.written = n as u32;
     }
 }

@@ -255,7 +255,7 @@ impl<S: PointletSource> RamCache<S> {
         &self,
         i: usize,
         range: std::ops::Range<u32>,
-        f: impl FnOnce(u32, &[[i32; 3]], &[u32]) -> R,
+        f: impl FnOnce(u32, &[[u32; 3]], &[u32]) -> R,
     ) -> Option<R> {
         let slot = self.shared.slots.get(i)?.lock().ok()?;
         let first = range.start.clamp(slot.start, slot.end());
@@ -518,8 +518,7 @@ mod tests {
                 });
             }
             for j in r {
-                out.positions
-                    .push([i as i32, j as i32, (i as i32) ^ (j as i32)]);
+                out.positions.push([i as u32, j, (i as u32) ^ j]);
                 out.attribute.push((i as u32) << 16 | j);
             }
             Ok(())
@@ -561,7 +560,7 @@ mod tests {
             assert!(c.resident(i) >= *w, "pointlet {i}: {} < {w}", c.resident(i));
             c.with_points(i, 0..*w, |_, p, a| {
                 for (j, (p, a)) in p.iter().zip(a).enumerate() {
-                    assert_eq!(*p, [i as i32, j as i32, i as i32 ^ j as i32]);
+                    assert_eq!(*p, [i as u32, j as u32, i as u32 ^ j as u32]);
                     assert_eq!(*a, (i as u32) << 16 | j as u32);
                 }
             })
@@ -633,7 +632,7 @@ mod tests {
                 assert_eq!(first, keep[7]);
                 for (j, (p, a)) in p.iter().zip(a).enumerate() {
                     let j = first as usize + j;
-                    assert_eq!(*p, [7, j as i32, 7 ^ j as i32]);
+                    assert_eq!(*p, [7, j as u32, 7 ^ j as u32]);
                     assert_eq!(*a, 7 << 16 | j as u32);
                 }
             })

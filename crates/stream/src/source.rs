@@ -12,14 +12,16 @@ pub struct SourceError {
     pub message: String,
 }
 
-/// A run of one pointlet's points as the GPU wants them: quantized positions and one packed
-/// 32-bit attribute (an RGBA colour, or any attribute encoded in four bytes, as in the paper).
-/// In the cache, `start` is the index of the first held point (the run is a window of the
-/// pointlet's shuffled order: a prefix until already-drawn points are dropped).
+/// A run of one pointlet's points as the GPU wants them: three position words per point, in
+/// whatever encoding the source and its consumer agree on (encoding in the loader threads keeps
+/// that work off the render thread), and one packed 32-bit attribute (an RGBA colour, or any
+/// attribute in four bytes, as in the paper). In the cache, `start` is the index of the first
+/// held point (the run is a window of the pointlet's shuffled order: a prefix until
+/// already-drawn points are dropped).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointletData {
     pub start: u32,
-    pub positions: Vec<[i32; 3]>,
+    pub positions: Vec<[u32; 3]>,
     pub attribute: Vec<u32>,
 }
 
