@@ -63,9 +63,10 @@ impl PageSink<'_> {
                 }
             }
             PointEncoding::Compact8 => {
-                for k in 0..n {
-                    self.positions[k] = words[k][0];
-                    self.fine[k] = words[k][1];
+                let out = self.positions.iter_mut().zip(self.fine.iter_mut());
+                for ((p, f), w) in out.zip(&words[..n]) {
+                    *p = w[0];
+                    *f = w[1];
                 }
             }
         }
