@@ -332,7 +332,17 @@ impl<S: PointletSource> Drop for RamCache<S> {
     }
 }
 
+/// Loaders yield to the render thread: on Linux, niceness is per thread.
+fn lower_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: setpriority on the calling thread (who = 0) only changes its scheduling weight.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, 0, 10);
+    }
+}
+
 fn worker<S: PointletSource>(sh: &Shared<S>, rx: &Mutex<Receiver<Task>>) {
+    lower_priority();
     loop {
         let task = match rx.lock() {
             Ok(r) => r.recv(),
