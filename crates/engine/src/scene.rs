@@ -61,6 +61,8 @@ pub struct FrameReport {
     /// publishing.
     pub residency_parts_ms: [f64; 6],
     pub points_uploaded: u64,
+    /// Page runs written (a run fills one page, or part of one).
+    pub upload_runs: u64,
     pub bytes_uploaded: u64,
     pub pages_evicted: u64,
     pub pages_resident: u32,
@@ -420,7 +422,15 @@ impl VirtualScene {
                 }
             })
             .collect();
-        self.cache.request_window(&self.requested, &keep);
+        // RAM brings whole pages: uploads fill pages to their end (see the planning below).
+        let counts = &self.counts;
+        let wanted: Vec<u32> = self
+            .requested
+            .par_iter()
+            .zip(counts.par_iter())
+            .map(|(r, c)| (r.div_ceil(ps) * ps).min(*c))
+            .collect();
+        self.cache.request_window(&wanted, &keep);
         lap(0, report);
         // GPU: drawing a moving view needs prefixes, so windows that lost their front while
         // the camera was still start over.
@@ -467,7 +477,10 @@ impl VirtualScene {
         let mut jobs: Vec<PageJob> = Vec::new();
         'pointlets: for (_, i) in &order {
             let i = *i as usize;
-            let target_hi = self.requested[i].min(self.cache.held(i).end);
+            // Fill up to the end of the page the request ends in: the page is taken anyway, and
+            // the next frames' small growth then needs no upload (no run of a few points each).
+            let fill_to = (self.requested[i].div_ceil(ps) * ps).min(self.counts[i]);
+            let target_hi = fill_to.min(self.cache.held(i).end);
             while self.residency.window(i).hi < target_hi && budget > 0 {
                 let hi = self.residency.window(i).hi;
                 let slot = match self.residency.slot_for_next(i) {
@@ -522,6 +535,7 @@ impl VirtualScene {
             }
             report.points_uploaded += *got as u64;
         }
+        report.upload_runs = jobs.len() as u64;
         lap(4, report);
         report.bytes_uploaded +=
             report.points_uploaded * self.config.encoding.resident_bytes_per_point();
