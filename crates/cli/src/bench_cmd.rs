@@ -33,6 +33,9 @@ pub struct Args {
     pub width: u32,
     #[arg(long, default_value_t = 1080)]
     pub height: u32,
+    /// Frames drawn before measuring (pipeline compilation, first requests), not counted.
+    #[arg(long, default_value_t = 1)]
+    pub warmup: u32,
     /// Frames the GPU may run behind the CPU (a swap chain's depth).
     #[arg(long, default_value_t = 2)]
     pub in_flight: usize,
@@ -59,8 +62,9 @@ struct FrameRow {
     frame: u32,
     frame_ms: f64,
     residency_ms: f64,
-    /// RAM requests, window upkeep, planning, gathering from RAM, encoding, publishing.
-    residency_parts_ms: [f64; 6],
+    /// RAM requests, window upkeep, planning, copying into the upload staging, publishing.
+    residency_parts_ms: [f64; 5],
+    upload_ms: f64,
     lod_ms: f64,
     raster_ms: f64,
     screen_ms: f64,
@@ -130,6 +134,13 @@ pub fn run(args: Args) -> Result<()> {
         CameraPath::load(Path::new(&args.path))?
     };
     let cameras = path.sample(args.frames, &bounds);
+    if let Some(first) = cameras.first() {
+        for _ in 0..args.warmup {
+            scene.frame(&ctx, &mut renderer, first, &settings, &mut target)?;
+        }
+        ctx.wait()?;
+        renderer.poll_timings(&ctx, &mut target);
+    }
     let mut rows: Vec<FrameRow> = Vec::with_capacity(cameras.len());
     let mut read_before = 0u64;
     let mut last_start = Instant::now();
@@ -163,9 +174,21 @@ pub fn run(args: Args) -> Result<()> {
     );
     let times: Vec<f64> = rows.iter().map(|r| r.frame_ms.max(1e-6)).collect();
     let stats = FrameStats::from_frame_times_ms(&times)?;
-    let mut stages = StageBreakdown::new(["residency", "lod", "raster", "screen"])?;
+    let mut stages = StageBreakdown::new([
+        "residency (CPU)",
+        "upload (GPU)",
+        "lod (GPU)",
+        "raster (GPU)",
+        "screen (GPU)",
+    ])?;
     for r in &rows {
-        stages.push_frame(&[r.residency_ms, r.lod_ms, r.raster_ms, r.screen_ms])?;
+        stages.push_frame(&[
+            r.residency_ms,
+            r.upload_ms,
+            r.lod_ms,
+            r.raster_ms,
+            r.screen_ms,
+        ])?;
     }
     let stage_table = stages.summary();
     let cache = scene.cache_stats();
@@ -183,7 +206,7 @@ pub fn run(args: Args) -> Result<()> {
     println!("stage breakdown (ms per frame):");
     for s in &stage_table {
         println!(
-            "  {:<10} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
+            "  {:<16} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
             s.name, s.avg_ms, s.median_ms, s.max_ms
         );
     }
@@ -245,6 +268,7 @@ fn row(frame: u32, r: &FrameReport, read_before: &mut u64) -> FrameRow {
         frame_ms: 0.0,
         residency_ms: r.residency_ms,
         residency_parts_ms: r.residency_parts_ms,
+        upload_ms: 0.0,
         lod_ms: 0.0,
         raster_ms: 0.0,
         screen_ms: 0.0,
@@ -272,6 +296,7 @@ fn attach_timings(
             .checked_sub(first)
             .and_then(|k| rows.get_mut(k as usize))
         {
+            r.upload_ms = t.upload_ms;
             r.lod_ms = t.lod_ms;
             r.raster_ms = t.raster_ms;
             r.screen_ms = t.screen_ms;
@@ -289,6 +314,7 @@ fn write_plot(path: &Path, rows: &[FrameRow]) -> Result<()> {
         series("frame", 0, &|r| r.frame_ms),
         series("raster (GPU)", 1, &|r| r.raster_ms),
         series("LoD (GPU)", 2, &|r| r.lod_ms),
+        series("upload (GPU)", 5, &|r| r.upload_ms),
         series("residency (CPU)", 3, &|r| r.residency_ms),
         series("screen (GPU)", 4, &|r| r.screen_ms),
     ];

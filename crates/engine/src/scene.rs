@@ -57,9 +57,9 @@ pub struct FrameReport {
     pub frame: u64,
     /// CPU time of the residency step (feedback, requests, uploads, evictions).
     pub residency_ms: f64,
-    /// Its parts: RAM requests, window upkeep, planning, gathering from RAM, encoding,
-    /// publishing.
-    pub residency_parts_ms: [f64; 6],
+    /// Its parts: RAM requests, window upkeep, planning uploads, copying them into the upload
+    /// staging, publishing table changes.
+    pub residency_parts_ms: [f64; 5],
     pub points_uploaded: u64,
     /// Page runs written (a run fills one page, or part of one).
     pub upload_runs: u64,
@@ -513,7 +513,6 @@ impl VirtualScene {
         }
         self.order = order;
         lap(2, report);
-        lap(3, report);
         // Copy into the upload staging in parallel; loaders already encoded the points. The
         // cache holds these ranges until the next request (this thread's), so nothing planned
         // goes missing.
@@ -536,7 +535,7 @@ impl VirtualScene {
             report.points_uploaded += *got as u64;
         }
         report.upload_runs = jobs.len() as u64;
-        lap(4, report);
+        lap(3, report);
         report.bytes_uploaded +=
             report.points_uploaded * self.config.encoding.resident_bytes_per_point();
         // Only what changed: new pages' table entries and the ranges of changed pointlets (pages
@@ -548,7 +547,7 @@ impl VirtualScene {
             let w = self.residency.window(i as usize);
             self.paged.set_state(i, w.lo, w.hi);
         }
-        lap(5, report);
+        lap(4, report);
     }
 
     /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their

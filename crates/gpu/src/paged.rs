@@ -456,10 +456,25 @@ impl PagedCloud {
         (width, height): (u32, u32),
         view: &PagedView,
         hidden_classes: &[u32; 8],
-        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        queries: Option<&wgpu::QuerySet>,
     ) -> Result<(), GpuError> {
-        self.uploads
-            .flush(ctx, enc, &self.storage, &self.page_table, &self.state)?;
+        // Timestamps: LoD at 0/1, uploads at 6/7 (raster and screen use 2–5).
+        let stamps = |begin: u32| {
+            queries.map(|q| wgpu::ComputePassTimestampWrites {
+                query_set: q,
+                beginning_of_pass_write_index: Some(begin),
+                end_of_pass_write_index: Some(begin + 1),
+            })
+        };
+        self.uploads.flush(
+            ctx,
+            enc,
+            &self.storage,
+            &self.page_table,
+            &self.state,
+            stamps(6),
+        )?;
+        let timestamps = stamps(0);
         write_frame(
             ctx,
             &self.frame_uniform,

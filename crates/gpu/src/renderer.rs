@@ -46,9 +46,12 @@ impl RenderSettings {
     }
 }
 
-/// GPU time of a frame's stages, from timestamp queries (LoD is 0 for static clouds).
+/// GPU time of a frame's stages, from timestamp queries (upload and LoD are 0 for static
+/// clouds).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameTiming {
+    /// Scatter of the frame's new pages and table changes (the residency work on the GPU).
+    pub upload_ms: f64,
     pub lod_ms: f64,
     pub raster_ms: f64,
     pub screen_ms: f64,
@@ -220,7 +223,7 @@ impl Renderer {
             (target.width, target.height),
             &view,
             &settings.hidden_classes,
-            stamps(0),
+            timer.map(|t| &t.queries),
         )?;
         self.record_raster(
             ctx,
@@ -342,11 +345,12 @@ impl Renderer {
         };
         t.poll(ctx)
             .into_iter()
-            .map(|(frame, [lod, raster, screen], had_lod)| {
+            .map(|(frame, [lod, raster, screen, upload], paged)| {
                 (
                     frame,
                     FrameTiming {
-                        lod_ms: if had_lod { lod } else { 0.0 },
+                        upload_ms: if paged { upload } else { 0.0 },
+                        lod_ms: if paged { lod } else { 0.0 },
                         raster_ms: raster,
                         screen_ms: screen,
                     },

@@ -222,7 +222,8 @@ pub(crate) fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8
     Ok(out)
 }
 
-/// Timestamps at the borders of a frame's passes: LoD, raster and screen start/end. Results
+/// Timestamps at the borders of a frame's passes: LoD, raster, screen and upload start/end.
+/// Results
 /// come back through a small ring of mappable buffers, so a render loop never waits for them.
 pub(crate) struct FrameTimer {
     pub queries: wgpu::QuerySet,
@@ -240,7 +241,7 @@ struct TimerSlot {
     had_lod: bool,
 }
 
-pub(crate) const TIMESTAMPS: u32 = 6;
+pub(crate) const TIMESTAMPS: u32 = 8;
 const RING: usize = 8;
 const FREE: u8 = 0;
 const IN_FLIGHT: u8 = 1;
@@ -310,8 +311,9 @@ impl FrameTimer {
         }
     }
 
-    /// Timings that have arrived, oldest first: (frame, [LoD, raster, screen] ms, had LoD).
-    pub fn poll(&mut self, ctx: &GpuContext) -> Vec<(u64, [f64; 3], bool)> {
+    /// Timings that have arrived, oldest first: (frame, [LoD, raster, screen, upload] ms, had
+    /// the paged passes).
+    pub fn poll(&mut self, ctx: &GpuContext) -> Vec<(u64, [f64; 4], bool)> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
         let mut out = Vec::new();
         for slot in &mut self.ring {
@@ -331,7 +333,7 @@ impl FrameTimer {
                     (Some(a), Some(b)) => b.saturating_sub(*a) as f64 * self.period_ns * 1e-6,
                     _ => 0.0,
                 };
-                out.push((slot.frame, [ms(0), ms(1), ms(2)], slot.had_lod));
+                out.push((slot.frame, [ms(0), ms(1), ms(2), ms(3)], slot.had_lod));
             }
         }
         out.sort_by_key(|r| r.0);

@@ -408,9 +408,17 @@ impl UploadQueue {
         storage: &PointStorage,
         page_table: &wgpu::Buffer,
         state: &wgpu::Buffer,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<(), GpuError> {
         let has_runs = self.runs.iter().any(|r| !r.is_empty());
         if !has_runs && self.page_updates.is_empty() && self.state_updates.is_empty() {
+            // An empty pass still writes the frame's upload timestamps.
+            if timestamps.is_some() {
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("uploads"),
+                    timestamp_writes: timestamps,
+                });
+            }
             return Ok(());
         }
         self.ensure_capacity(ctx, storage, page_table, state)?;
@@ -464,7 +472,7 @@ impl UploadQueue {
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("uploads"),
-                timestamp_writes: None,
+                timestamp_writes: timestamps,
             });
             if has_runs {
                 pass.set_pipeline(&self.scatter);
