@@ -62,7 +62,7 @@ struct FrameRow {
     frame: u32,
     frame_ms: f64,
     residency_ms: f64,
-    /// RAM requests, window upkeep, planning, copying into the upload staging, publishing.
+    /// See `pointlet_engine::RESIDENCY_PARTS`.
     residency_parts_ms: [f64; 5],
     upload_ms: f64,
     lod_ms: f64,
@@ -210,16 +210,11 @@ pub fn run(args: Args) -> Result<()> {
             s.name, s.avg_ms, s.median_ms, s.max_ms
         );
     }
-    let parts = [
-        "RAM requests",
-        "window upkeep",
-        "planning",
-        "gather",
-        "encode",
-        "publish",
-    ];
-    for (k, name) in parts.iter().enumerate() {
-        let v: Vec<f64> = rows.iter().map(|r| r.residency_parts_ms[k]).collect();
+    for (k, name) in pointlet_engine::RESIDENCY_PARTS.iter().enumerate() {
+        let v: Vec<f64> = rows
+            .iter()
+            .filter_map(|r| r.residency_parts_ms.get(k).copied())
+            .collect();
         let avg = v.iter().sum::<f64>() / v.len().max(1) as f64;
         let max = v.iter().cloned().fold(0.0, f64::max);
         println!("    residency: {name:<14} avg {avg:>8.3}  max {max:>8.3}");

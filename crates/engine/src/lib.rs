@@ -8,7 +8,9 @@ mod scene;
 mod source;
 
 pub use residency::{ResidencySet, Window};
-pub use scene::{target_bytes, FrameReport, PickedPoint, SceneConfig, VirtualScene};
+pub use scene::{
+    target_bytes, FrameReport, PickedPoint, SceneConfig, VirtualScene, RESIDENCY_PARTS,
+};
 pub use source::{fit_scale, has_attribute, StoreSource};
 
 use thiserror::Error;

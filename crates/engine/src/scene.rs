@@ -51,15 +51,23 @@ impl Default for SceneConfig {
     }
 }
 
+/// Names of [`FrameReport::residency_parts_ms`], in order.
+pub const RESIDENCY_PARTS: [&str; 5] = [
+    "RAM requests",
+    "window upkeep",
+    "planning",
+    "copy to staging",
+    "publish",
+];
+
 /// What one frame did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameReport {
     pub frame: u64,
     /// CPU time of the residency step (feedback, requests, uploads, evictions).
     pub residency_ms: f64,
-    /// Its parts: RAM requests, window upkeep, planning uploads, copying them into the upload
-    /// staging, publishing table changes.
-    pub residency_parts_ms: [f64; 5],
+    /// Its parts, named by [`RESIDENCY_PARTS`].
+    pub residency_parts_ms: [f64; RESIDENCY_PARTS.len()],
     pub points_uploaded: u64,
     /// Page runs written (a run fills one page, or part of one).
     pub upload_runs: u64,
