@@ -86,10 +86,10 @@ impl ColorState {
     /// The edited scale with a usable range (min < max) and gamma (> 0).
     fn sanitized(&self) -> ColorScale {
         let mut s = self.scale;
-        if !(s.range[1] > s.range[0]) {
+        if s.range[1].partial_cmp(&s.range[0]) != Some(std::cmp::Ordering::Greater) {
             s.range[1] = s.range[0] + 1.0;
         }
-        if !(s.gamma > 0.0) || !s.gamma.is_finite() {
+        if !s.gamma.is_finite() || s.gamma <= 0.0 {
             s.gamma = 1.0;
         }
         s

@@ -15,8 +15,14 @@ use pointlet_gpu::{
 pub const PICK_RADIUS: u32 = 6;
 
 pub enum Content {
-    Memory { data: MemoryData, cloud: GpuCloud },
+    Memory(Box<InMemory>),
     Store(Box<VirtualScene>),
+}
+
+/// Points held in RAM with their attribute columns, and their GPU copy.
+pub struct InMemory {
+    pub data: MemoryData,
+    pub cloud: GpuCloud,
 }
 
 /// What a frame drew.
@@ -41,26 +47,26 @@ impl Content {
         let set = data.point_set(scale);
         let cloud = GpuCloud::upload(ctx, &set, encoding, page_size)
             .map_err(|e| ViewerError::Gpu(format!("uploading {}: {e}", data.name)))?;
-        Ok(Content::Memory { data, cloud })
+        Ok(Content::Memory(Box::new(InMemory { data, cloud })))
     }
 
     pub fn name(&self) -> String {
         match self {
-            Content::Memory { data, .. } => data.name.clone(),
+            Content::Memory(m) => m.data.name.clone(),
             Content::Store(s) => s.store().path().display().to_string(),
         }
     }
 
     pub fn bounds(&self) -> Aabb {
         match self {
-            Content::Memory { data, .. } => data.bounds,
+            Content::Memory(m) => m.data.bounds,
             Content::Store(s) => s.bounds(),
         }
     }
 
     pub fn points(&self) -> u64 {
         match self {
-            Content::Memory { data, .. } => data.len() as u64,
+            Content::Memory(m) => m.data.len() as u64,
             Content::Store(s) => s.points(),
         }
     }
@@ -68,7 +74,7 @@ impl Content {
     /// GPU bytes of point data and tables (the render target not included).
     pub fn gpu_bytes(&self) -> u64 {
         match self {
-            Content::Memory { cloud, .. } => cloud.point_bytes(),
+            Content::Memory(m) => m.cloud.point_bytes(),
             Content::Store(s) => s.gpu_bytes(),
         }
     }
@@ -81,9 +87,7 @@ impl Content {
     /// The colouring state to start from: `scale` is already on the GPU.
     pub fn color_state(&self, scale: ColorScale) -> ColorState {
         match self {
-            Content::Memory { data, .. } => {
-                ColorState::new(available_modes(&data.layout), scale, true)
-            }
+            Content::Memory(m) => ColorState::new(available_modes(&m.data.layout), scale, true),
             Content::Store(s) => {
                 ColorState::new(available_modes(&s.store().header().layout), scale, false)
             }
@@ -93,7 +97,7 @@ impl Content {
     /// The data-fitted scale of `mode`.
     pub fn fitted(&self, mode: pointlet_core::color::ColorMode) -> Result<ColorScale, ViewerError> {
         match self {
-            Content::Memory { data, .. } => Ok(data.fitted(mode)),
+            Content::Memory(m) => Ok(m.data.fitted(mode)),
             Content::Store(s) => pointlet_engine::fit_scale(s.store(), mode)
                 .map_err(|e| ViewerError::Load(e.to_string())),
         }
@@ -101,7 +105,7 @@ impl Content {
 
     pub fn legend(&self) -> Vec<LegendEntry> {
         match self {
-            Content::Memory { data, .. } => legend(Some(&data.class_counts)),
+            Content::Memory(m) => legend(Some(&m.data.class_counts)),
             Content::Store(_) => legend(None),
         }
     }
@@ -111,8 +115,9 @@ impl Content {
     /// (only the mode can change there: the engine fits ranges itself).
     pub fn apply_color(&mut self, ctx: &GpuContext, scale: &ColorScale) -> Result<(), ViewerError> {
         match self {
-            Content::Memory { data, cloud } => cloud
-                .recolor(ctx, &data.colors(scale))
+            Content::Memory(m) => m
+                .cloud
+                .recolor(ctx, &m.data.colors(scale))
                 .map_err(|e| ViewerError::Gpu(format!("recolouring: {e}"))),
             Content::Store(s) => {
                 if s.color_mode() == scale.mode {
@@ -133,12 +138,12 @@ impl Content {
         target: &mut RenderTarget,
     ) -> Result<Drawn, ViewerError> {
         match self {
-            Content::Memory { cloud, .. } => {
+            Content::Memory(m) => {
                 renderer
-                    .render(ctx, cloud, camera, settings, target)
+                    .render(ctx, &mut m.cloud, camera, settings, target)
                     .map_err(|e| ViewerError::Gpu(e.to_string()))?;
                 Ok(Drawn {
-                    points: cloud.points,
+                    points: m.cloud.points,
                     converged: true,
                     report: None,
                 })
@@ -168,11 +173,19 @@ impl Content {
     ) -> Result<Option<[f64; 3]>, ViewerError> {
         let gpu = |e: pointlet_gpu::GpuError| ViewerError::Gpu(format!("picking: {e}"));
         match self {
-            Content::Memory { data, cloud } => {
+            Content::Memory(m) => {
                 let hit = renderer
-                    .pick(ctx, cloud, camera, settings, target, pixel, PICK_RADIUS)
+                    .pick(
+                        ctx,
+                        &mut m.cloud,
+                        camera,
+                        settings,
+                        target,
+                        pixel,
+                        PICK_RADIUS,
+                    )
                     .map_err(gpu)?;
-                Ok(hit.and_then(|h| data.position(h.id)))
+                Ok(hit.and_then(|h| m.data.position(h.id)))
             }
             Content::Store(s) => {
                 let hit = s

@@ -237,7 +237,8 @@ impl Navigator {
 
     /// Advances key movement by `dt` seconds; true if the camera moved.
     pub fn update(&mut self, dt: f64) -> bool {
-        if !self.moving() || !(dt > 0.0) {
+        // NaN or non-positive steps move nothing.
+        if !self.moving() || dt.is_nan() || dt <= 0.0 {
             return false;
         }
         let axis = |plus: MoveKey, minus: MoveKey| {

@@ -188,7 +188,7 @@ impl PathRecorder {
             return;
         };
         let since = now - last_t;
-        if !(since >= self.interval) {
+        if since.is_nan() || since < self.interval {
             return;
         }
         if *camera == last_cam {
