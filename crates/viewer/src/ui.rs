@@ -217,7 +217,7 @@ fn legend(s: &mut egui::Ui, view: &mut View) {
 
 fn rendering(p: &mut egui::Ui, view: &mut View) {
     egui::CollapsingHeader::new("Rendering")
-        .default_open(false)
+        .default_open(true)
         .show(p, |s| {
             let caps = view.ctx.caps;
             let current = view.settings.variant;
@@ -421,33 +421,32 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
         });
 }
 
-/// Frame times of the history as a bar graph (height: 0–50 ms).
+/// Frame times of the history as a bar graph, scaled to the slowest frame (at least 33 ms),
+/// with the 60 FPS line.
 fn frame_graph(w: &mut egui::Ui, view: &View) {
+    let top_ms = view
+        .stats
+        .worst()
+        .map_or(33.3, |t| (t * 1000.0 * 1.1).max(33.3));
+    w.label(RichText::new(format!("frame times, 0–{top_ms:.0} ms")).small());
     let (rect, _) = w.allocate_exact_size(egui::vec2(240.0, 48.0), egui::Sense::hover());
     let painter = w.painter_at(rect);
     painter.rect_filled(rect, 2.0, Color32::from_black_alpha(120));
-    let times: Vec<f64> = view.stats.frame_times().collect();
-    let n = crate::stats::HISTORY as f32;
-    let bar = rect.width() / n;
-    for (i, t) in times.iter().enumerate() {
-        let h = ((*t * 1000.0 / 50.0) as f32).clamp(0.0, 1.0) * rect.height();
+    let bar = rect.width() / crate::stats::HISTORY as f32;
+    let height = |ms: f64| ((ms / top_ms) as f32).clamp(0.0, 1.0) * rect.height();
+    for (i, t) in view.stats.frame_times().enumerate() {
+        let ms = t * 1000.0;
         let x = rect.left() + i as f32 * bar;
-        let color = if *t > 1.0 / 30.0 {
+        let color = if ms > 1000.0 / 30.0 {
             Color32::from_rgb(230, 90, 60)
         } else {
             Color32::from_rgb(90, 200, 120)
         };
-        painter.rect_filled(
-            egui::Rect::from_min_max(
-                egui::pos2(x, rect.bottom() - h),
-                egui::pos2(x + bar, rect.bottom()),
-            ),
-            0.0,
-            color,
-        );
+        let top = egui::pos2(x, rect.bottom() - height(ms));
+        let bottom = egui::pos2(x + bar, rect.bottom());
+        painter.rect_filled(egui::Rect::from_min_max(top, bottom), 0.0, color);
     }
-    // The 60 FPS line.
-    let y = rect.bottom() - (16.7 / 50.0) * rect.height();
+    let y = rect.bottom() - height(1000.0 / 60.0);
     painter.hline(
         rect.x_range(),
         y,
