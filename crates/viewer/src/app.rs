@@ -261,7 +261,9 @@ impl ApplicationHandler for App {
                 Ok(())
             }
             WindowEvent::KeyboardInput { event, .. } => {
-                if response.consumed || s.egui_ctx.egui_wants_keyboard_input() {
+                // Releases always count: a movement key let go while typing must not stick.
+                let typing = response.consumed || s.egui_ctx.egui_wants_keyboard_input();
+                if typing && event.state == ElementState::Pressed {
                     Ok(())
                 } else {
                     s.key(&event, now)
@@ -352,7 +354,7 @@ impl Running {
             PhysicalKey::Code(KeyCode::KeyB) => Some(Action::AddBookmark),
             PhysicalKey::Code(KeyCode::KeyR) => Some(Action::ToggleRecording),
             PhysicalKey::Code(KeyCode::KeyH) => Some(Action::ToggleUi),
-            PhysicalKey::Code(KeyCode::Tab) => Some(Action::ToggleMode),
+            PhysicalKey::Code(KeyCode::KeyV) => Some(Action::ToggleMode),
             _ => None,
         };
         let action = by_code.or_else(|| match &event.logical_key {

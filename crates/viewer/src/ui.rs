@@ -24,7 +24,7 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("Q / E", "move down / up"),
     ("shift (held)", "move 4× faster"),
     ("+ / -", "movement speed up / down"),
-    ("Tab", "switch orbit / fly mode"),
+    ("V", "switch orbit / fly mode"),
     ("F", "zoom to fit"),
     ("M", "measure tool: clicks pick two points"),
     ("Esc", "clear the measurement, leave the measure tool"),
