@@ -97,6 +97,22 @@ fn assert_view_matches_render(x: &Xvfb, input: &Path, extra: &[&str]) {
     assert_view_matches_render_with(x, input, extra, &[]);
 }
 
+/// The demo scene both ways (no INPUT).
+fn assert_view_matches_render_demo(x: &Xvfb, extra: &[&str]) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (viewed, rendered) = (dir.path().join("v.png"), dir.path().join("r.png"));
+    let size = ["--width", "320", "--height", "240"];
+    let mut view_args = vec!["--frames", "2", "--screenshot", s(&viewed)];
+    view_args.extend_from_slice(&size);
+    view_args.extend_from_slice(extra);
+    x.view(&view_args);
+    let mut render_args = vec!["render", "-o", s(&rendered)];
+    render_args.extend_from_slice(&size);
+    render_args.extend_from_slice(extra);
+    ok(&render_args);
+    assert_eq!(pixels(&viewed), pixels(&rendered), "demo scene {extra:?}");
+}
+
 /// Like [`assert_view_matches_render`], with `view_only` arguments that `render` lacks.
 fn assert_view_matches_render_with(x: &Xvfb, input: &Path, extra: &[&str], view_only: &[&str]) {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -155,6 +171,13 @@ fn viewer_window_matches_render_of_the_same_camera() {
         &data("plane.laz"),
         &["--color", "intensity", "--raster", "hqs"],
     );
+    // The hardware point baseline, and the demo scene (no INPUT).
+    assert_view_matches_render(
+        &x,
+        &laz,
+        &["--raster", "hw-points", "--color", "classification"],
+    );
+    assert_view_matches_render_demo(&x, &["--demo-points", "60000", "--view", "closeup"]);
 }
 
 #[test]
@@ -179,9 +202,13 @@ fn viewer_window_screenshot_and_bad_input() {
         rgba.chunks_exact(4).all(|p| p[3] == 255),
         "the window is opaque"
     );
-    // A missing file and a wrong screenshot name fail cleanly, before any window opens.
+    // A missing or broken file and a wrong screenshot name fail cleanly, before any window
+    // opens.
     let missing = dir.path().join("missing.laz");
     common::fails(&["view", s(&missing), "--frames", "1"], &["missing.laz"]);
+    let broken = dir.path().join("broken.laz");
+    std::fs::write(&broken, b"LASF but not really a point file").expect("write");
+    common::fails(&["view", s(&broken), "--frames", "1"], &["broken.laz"]);
     common::fails(
         &[
             "view",

@@ -468,6 +468,7 @@ impl Running {
         automation: Option<&Automation>,
         event_loop: &ActiveEventLoop,
     ) -> Result<(), ViewerError> {
+        let ui_started = Instant::now();
         let input = self.egui.take_egui_input(&self.window);
         let view = &mut self.view;
         let ui = &mut self.ui;
@@ -490,7 +491,8 @@ impl Running {
             textures: &mut textures,
             pixels_per_point: output.pixels_per_point,
         };
-        let result = self.advance(actions, &mut overlay, now, automation, event_loop);
+        let ui_ms = ui_started.elapsed().as_secs_f64() * 1e3;
+        let result = self.advance(actions, &mut overlay, now, ui_ms, automation, event_loop);
         // Handled by the presenter, or the viewer is ending on an error: egui wants them gone.
         textures.clear();
         result?;
@@ -506,6 +508,7 @@ impl Running {
         actions: Vec<Action>,
         overlay: &mut Overlay<'_>,
         now: f64,
+        ui_ms: f64,
         automation: Option<&Automation>,
         event_loop: &ActiveEventLoop,
     ) -> Result<(), ViewerError> {
@@ -514,17 +517,28 @@ impl Running {
         }
         let dt = self.last_frame.map_or(0.0, |t| now - t);
         self.last_frame = Some(now);
-        if automation.is_some() || self.ui.continuous || self.view.needs_frame() {
+        let drawing = Instant::now();
+        let drew = automation.is_some() || self.ui.continuous || self.view.needs_frame();
+        if drew {
             self.view.frame(now, dt)?;
             self.frames += 1;
         }
+        let draw_ms = drawing.elapsed().as_secs_f64() * 1e3;
         let finishing = automation.filter(|a| {
             self.frames >= a.frames && (self.view.drawn.converged || self.timed_out(a, now))
         });
         let capture = finishing.is_some_and(|a| a.window_screenshot.is_some());
+        let presenting = Instant::now();
         let shown =
             self.presenter
                 .present(&self.view.ctx, self.view.target.output(), overlay, capture)?;
+        if drew {
+            self.view.stats.cpu_times(crate::stats::CpuTimes {
+                ui_ms,
+                draw_ms,
+                present_ms: presenting.elapsed().as_secs_f64() * 1e3,
+            });
+        }
         if let (Some(a), Presented::Shown(window_pixels)) = (finishing, shown) {
             self.finish(a, window_pixels)?;
             event_loop.exit();
@@ -565,6 +579,26 @@ impl Running {
             self.view.settings.variant.name(),
             self.view.ctx.describe()
         );
+        let stats = &self.view.stats;
+        if let (Some(fps), Some(c)) = (stats.fps(), stats.cpu_mean()) {
+            let gpu = stats
+                .gpu
+                .map(|g| {
+                    format!(
+                        "; GPU: LoD {:.2} ms, raster {:.2} ms, screen {:.2} ms",
+                        g.lod_ms, g.raster_ms, g.screen_ms
+                    )
+                })
+                .unwrap_or_default();
+            eprintln!(
+                "{fps:.1} FPS over the last {} frames; main thread per frame: overlay {:.2} ms, \
+                 draw {:.2} ms, present {:.2} ms{gpu}",
+                stats.frame_times().count(),
+                c.ui_ms,
+                c.draw_ms,
+                c.present_ms
+            );
+        }
         Ok(())
     }
 }

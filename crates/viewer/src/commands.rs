@@ -137,7 +137,7 @@ pub fn perform(
             });
         }
         Action::AddBookmark => {
-            let name = view.bookmarks.add(view.nav.camera).name.clone();
+            let name = view.bookmarks.add(view.nav.camera);
             ui.say(format!("bookmarked {name}"), now);
         }
         Action::GoBookmark(i) => match view.bookmarks.get(i) {

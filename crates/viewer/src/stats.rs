@@ -10,6 +10,16 @@ pub const HISTORY: usize = 240;
 /// Seconds between two reads of the GPU timestamps.
 const TIMING_PERIOD: f64 = 0.5;
 
+/// Main-thread time of one frame's stages, in milliseconds: the overlay (egui layout and
+/// tessellation), drawing (residency, encoding and submitting the frame) and presenting
+/// (acquiring the surface texture, which waits for the display and the GPU, and the blit).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CpuTimes {
+    pub ui_ms: f64,
+    pub draw_ms: f64,
+    pub present_ms: f64,
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
     /// Seconds between consecutive frames, newest last.
@@ -18,6 +28,9 @@ pub struct FrameStats {
     last_timing_read: Option<f64>,
     pub gpu: Option<FrameTiming>,
     pub frames: u64,
+    pub cpu: CpuTimes,
+    cpu_sum: CpuTimes,
+    cpu_frames: u64,
 }
 
 impl FrameStats {
@@ -31,6 +44,25 @@ impl FrameStats {
         }
         self.last_frame = Some(now);
         self.frames += 1;
+    }
+
+    /// Records the main thread's stage times of a frame.
+    pub fn cpu_times(&mut self, t: CpuTimes) {
+        self.cpu = t;
+        self.cpu_sum.ui_ms += t.ui_ms;
+        self.cpu_sum.draw_ms += t.draw_ms;
+        self.cpu_sum.present_ms += t.present_ms;
+        self.cpu_frames += 1;
+    }
+
+    /// Mean stage times over every recorded frame.
+    pub fn cpu_mean(&self) -> Option<CpuTimes> {
+        let n = self.cpu_frames as f64;
+        (self.cpu_frames > 0).then(|| CpuTimes {
+            ui_ms: self.cpu_sum.ui_ms / n,
+            draw_ms: self.cpu_sum.draw_ms / n,
+            present_ms: self.cpu_sum.present_ms / n,
+        })
     }
 
     /// Forgets the time since the last frame (after idling: the gap is not a slow frame).
@@ -87,5 +119,15 @@ mod tests {
         assert!(s.timing_due(1.0));
         assert!(!s.timing_due(1.2));
         assert!(s.timing_due(1.6));
+        assert_eq!(s.cpu_mean(), None);
+        let t = |ms| CpuTimes {
+            ui_ms: ms,
+            draw_ms: 2.0 * ms,
+            present_ms: 3.0 * ms,
+        };
+        s.cpu_times(t(1.0));
+        s.cpu_times(t(3.0));
+        assert_eq!(s.cpu_mean(), Some(t(2.0)));
+        assert_eq!(s.cpu, t(3.0));
     }
 }

@@ -82,10 +82,14 @@ pub struct Bookmarks {
 const MAX_BOOKMARK_FILE_BYTES: u64 = 16 << 20;
 
 impl Bookmarks {
-    pub fn add(&mut self, camera: Camera) -> &Bookmark {
+    /// Adds `camera` under a generated name, which is returned.
+    pub fn add(&mut self, camera: Camera) -> String {
         let name = format!("view {}", self.list.len() + 1);
-        self.list.push(Bookmark { name, camera });
-        &self.list[self.list.len() - 1]
+        self.list.push(Bookmark {
+            name: name.clone(),
+            camera,
+        });
+        name
     }
 
     pub fn get(&self, index: usize) -> Option<&Camera> {

@@ -367,6 +367,11 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
             w.label(format!("{fps} FPS · frame {}", view.stats.frames));
             frame_graph(w, view);
             w.checkbox(&mut ui.continuous, "redraw continuously");
+            let c = view.stats.cpu;
+            w.label(format!(
+                "CPU: overlay {:.1} · draw {:.1} · present {:.1} ms",
+                c.ui_ms, c.draw_ms, c.present_ms
+            ));
             if let Some(t) = view.stats.gpu {
                 w.label(format!(
                     "GPU: LoD {:.2} · raster {:.2} · screen {:.2} ms",
