@@ -94,7 +94,7 @@ fn pixels(path: &Path) -> (u32, u32, Vec<u8>) {
 
 /// Renders `input` with `extra` arguments both ways and asserts identical pixels.
 fn assert_view_matches_render(x: &Xvfb, input: &Path, extra: &[&str]) {
-    assert_view_matches_render_with(x, input, extra, &[]);
+    assert_view_matches_render_with(x, input, extra, &[], 0);
 }
 
 /// The demo scene both ways (no INPUT).
@@ -113,8 +113,15 @@ fn assert_view_matches_render_demo(x: &Xvfb, extra: &[&str]) {
     assert_eq!(pixels(&viewed), pixels(&rendered), "demo scene {extra:?}");
 }
 
-/// Like [`assert_view_matches_render`], with `view_only` arguments that `render` lacks.
-fn assert_view_matches_render_with(x: &Xvfb, input: &Path, extra: &[&str], view_only: &[&str]) {
+/// Like [`assert_view_matches_render`], with `view_only` arguments that `render` lacks and at
+/// most `tolerated` differing pixels.
+fn assert_view_matches_render_with(
+    x: &Xvfb,
+    input: &Path,
+    extra: &[&str],
+    view_only: &[&str],
+    tolerated: usize,
+) {
     let dir = tempfile::tempdir().expect("tempdir");
     let viewed = dir.path().join("view.png");
     let rendered = dir.path().join("render.png");
@@ -136,9 +143,8 @@ fn assert_view_matches_render_with(x: &Xvfb, input: &Path, extra: &[&str], view_
             .zip(b.2.chunks_exact(4))
             .filter(|(p, q)| p != q)
             .count();
-    assert_eq!(
-        differing,
-        0,
+    assert!(
+        differing <= tolerated,
         "{extra:?}: {differing} of {} pixels differ between view and render",
         a.0 * a.1
     );
@@ -229,6 +235,13 @@ fn viewer_of_a_store_converges_to_the_render_of_it() {
     ok(&["convert", s(&data("autzen_trim.laz")), "-o", s(&store)]);
     // Small budgets: the store is streamed through the virtualized scene, not held whole.
     let budgets = ["--vram-budget", "96MiB", "--ram-budget", "16MiB"];
-    assert_view_matches_render_with(&x, &store, &[], &budgets);
-    assert_view_matches_render_with(&x, &store, &["--color", "classification"], &budgets);
+    assert_view_matches_render_with(&x, &store, &[], &budgets, 0);
+    assert_view_matches_render_with(&x, &store, &["--color", "classification"], &budgets, 0);
+    // HQS cannot accumulate: its image is final once every requested point is drawn. It blends
+    // the points within 1 % of the closest depth, so last-bit rounding decides points at that
+    // border: the virtualized scene's pages have other origins than `render`'s (positions
+    // relative to them round differently in f32), and its camera is fitted to the store
+    // header's bounds (637179.22) where `render` fits it to the dequantized points
+    // (637179.2200000001). 1 pixel of 172 800 differs here; closest-point images are exact.
+    assert_view_matches_render_with(&x, &store, &["--raster", "hqs"], &budgets, 20);
 }
