@@ -27,12 +27,29 @@ const DOUBLE_CLICK_S: f64 = 0.4;
 const PIXELS_PER_STEP: f64 = 50.0;
 
 pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
+    let (w, h) = config.size;
+    if w == 0 || h == 0 {
+        return Err(ViewerError::Config(format!(
+            "window size {w}×{h}: width and height must be at least 1 pixel"
+        )));
+    }
     if let Some(a) = &config.automation {
         for p in a.screenshot.iter().chain(&a.window_screenshot) {
             crate::png_out::check_png_path(p)?;
         }
+        if !(a.converge_timeout_s.is_finite() && a.converge_timeout_s >= 0.0) {
+            return Err(ViewerError::Config(format!(
+                "the convergence timeout must be a number of seconds ≥ 0, not {}",
+                a.converge_timeout_s
+            )));
+        }
     }
     // Raw files are read before the window opens (streaming them is a later issue).
+    match &config.input {
+        Input::File(p) => eprintln!("reading {} into memory…", p.display()),
+        Input::Demo { points, .. } => eprintln!("generating the demo scene ({points} points)…"),
+        Input::Store(_) => {}
+    }
     let memory = match &config.input {
         Input::File(p) => Some(MemoryData::load(Source::File(p), config.order)?),
         Input::Demo { points, seed } => Some(MemoryData::load(
