@@ -155,6 +155,20 @@ impl MemoryData {
         self.perm.is_empty()
     }
 
+    /// RAM held by the attribute columns and the upload order.
+    pub fn ram_bytes(&self) -> u64 {
+        let b = &self.batch;
+        let bytes = b.xyz.len() * 24
+            + b.intensity.len() * 2
+            + b.returns.len()
+            + b.classification.len()
+            + b.point_source_id.len() * 2
+            + b.gps_time.len() * 8
+            + b.rgb.len() * 6
+            + self.perm.len() * 4;
+        bytes as u64
+    }
+
     /// The data-fitted scale of `mode` (what `pointlet render --color` draws with).
     pub fn fitted(&self, mode: ColorMode) -> ColorScale {
         let k = ColorMode::ALL.iter().position(|m| *m == mode).unwrap_or(0);

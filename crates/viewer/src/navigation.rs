@@ -94,10 +94,6 @@ impl Navigator {
         nav
     }
 
-    pub fn bounds(&self) -> &Aabb {
-        &self.bounds
-    }
-
     /// Replaces the camera (bookmarks, paths), keeping the z-up convention of the controller.
     pub fn set_camera(&mut self, camera: Camera) {
         self.camera = camera;

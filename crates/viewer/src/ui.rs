@@ -419,8 +419,15 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
                             .text(format!("loaded {:.0} % of the view", progress * 100.0)),
                     );
                 }
-                _ => {
+                (crate::content::Content::Memory(m), _) => {
                     w.label(format!("VRAM {} (all points resident)", format_bytes(vram)));
+                    w.label(format!(
+                        "RAM {} (attributes held for recolouring and picking)",
+                        format_bytes(m.data.ram_bytes())
+                    ));
+                }
+                (crate::content::Content::Store(_), None) => {
+                    w.label(format!("VRAM {}", format_bytes(vram)));
                 }
             }
         });
