@@ -45,11 +45,6 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
         }
     }
     // Raw files are read before the window opens (streaming them is a later issue).
-    match &config.input {
-        Input::File(p) => eprintln!("reading {} into memory…", p.display()),
-        Input::Demo { points, .. } => eprintln!("generating the demo scene ({points} points)…"),
-        Input::Store(_) => {}
-    }
     let memory = match &config.input {
         Input::File(p) => Some(MemoryData::load(Source::File(p), config.order)?),
         Input::Demo { points, seed } => Some(MemoryData::load(
