@@ -1,6 +1,7 @@
 //! Headless (no window): picking through the viewer's `View` on a small georeferenced cloud
 //! returns the exact stored point, the measuring tool gives the exact distance, hidden classes
-//! cannot be picked, and switching the colouring re-uploads colours that the image then shows.
+//! cannot be picked, switching the colouring re-uploads colours that the image then shows, and
+//! the actions of keys and buttons (bookmarks, path recording, speed, fit) do what they say.
 
 use pointlet_core::color::{classification_color, ColorMode};
 use pointlet_core::order::VertexOrder;
@@ -127,4 +128,43 @@ fn switching_the_colouring_reuploads_colours() {
         &v.image().expect("image"),
         classification_color(2)
     ));
+}
+
+#[test]
+fn actions_bookmark_record_and_move_the_camera() {
+    let mut v = view(RasterVariant::ReduceEarlyZ);
+    let mut ui = UiState::default();
+    let dir = tempfile::tempdir().expect("tempdir");
+    ui.path_file = dir.path().join("flight.json").display().to_string();
+    ui.bookmarks_file = dir.path().join("marks.json").display().to_string();
+    let start = v.nav.camera;
+    perform(Action::AddBookmark, &mut v, &mut ui, 0.0).expect("bookmark");
+    perform(Action::ToggleRecording, &mut v, &mut ui, 0.0).expect("record");
+    for k in 1..=5 {
+        v.nav.drag(
+            pointlet_viewer::navigation::Drag::Rotate,
+            [20.0, 0.0],
+            [SIZE.0, SIZE.1],
+        );
+        v.frame(k as f64 * 0.2, 0.2).expect("frame");
+    }
+    perform(Action::ToggleRecording, &mut v, &mut ui, 1.2).expect("save path");
+    let path = pointlet_core::path::CameraPath::load(std::path::Path::new(&ui.path_file))
+        .expect("a path bench can read");
+    assert_eq!(path.keyframes.len(), 6, "the start and one per moved frame");
+    assert_eq!(path.keyframes[0].eye, start.eye);
+    assert_ne!(v.nav.camera, start);
+    perform(Action::SaveBookmarks, &mut v, &mut ui, 1.3).expect("save");
+    v.bookmarks = Default::default();
+    perform(Action::LoadBookmarks, &mut v, &mut ui, 1.4).expect("load");
+    perform(Action::GoBookmark(0), &mut v, &mut ui, 1.5).expect("go");
+    assert_eq!(v.nav.camera.eye, start.eye, "back at the bookmarked view");
+    let speed = v.nav.speed;
+    perform(Action::Faster, &mut v, &mut ui, 1.6).expect("faster");
+    assert!(v.nav.speed > speed);
+    perform(Action::Fit, &mut v, &mut ui, 1.7).expect("fit");
+    assert_eq!(v.nav.camera.target, v.content.bounds().center());
+    // A bookmark that does not exist is a message, not an error.
+    perform(Action::GoBookmark(7), &mut v, &mut ui, 1.8).expect("no bookmark 8");
+    assert!(ui.status(1.9).is_some_and(|m| m.contains("no bookmark 8")));
 }
