@@ -208,6 +208,17 @@ fn viewer_window_screenshot_and_bad_input() {
         rgba.chunks_exact(4).all(|p| p[3] == 255),
         "the window is opaque"
     );
+    // Data without colours opens coloured by elevation (the default is --color rgb).
+    let err = x.view(&[
+        s(&data("simple1_1.las")),
+        "--frames",
+        "1",
+        "--width",
+        "200",
+        "--height",
+        "150",
+    ]);
+    assert!(err.contains("colouring by elevation"), "{err}");
     // A missing or broken file and a wrong screenshot name fail cleanly, before any window
     // opens.
     let missing = dir.path().join("missing.laz");

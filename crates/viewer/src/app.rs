@@ -8,6 +8,8 @@ use crate::navigation::{Drag, MoveKey};
 use crate::present::{Overlay, Presented, Presenter};
 use crate::view::View;
 use crate::{Automation, Input, ViewerConfig, ViewerError};
+use pointlet_core::color::ColorMode;
+use pointlet_core::PointLayout;
 use pointlet_engine::{SceneConfig, VirtualScene};
 use pointlet_gpu::{AdapterRequest, GpuContext, RasterVariant};
 use std::sync::Arc;
@@ -146,8 +148,13 @@ impl App {
                 size.0, size.1
             )));
         }
-        let content = match (&c.input, self.memory.take()) {
+        let (content, color) = match (&c.input, self.memory.take()) {
             (Input::Store(path), _) => {
+                let layout = pointlet_store::Store::open(path)
+                    .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?
+                    .header()
+                    .layout;
+                let color = usable_color(&layout, c.color, &path.display().to_string());
                 let scene = VirtualScene::open(
                     &ctx,
                     path,
@@ -156,28 +163,25 @@ impl App {
                         ram_budget: c.store.ram,
                         bucket: c.store.bucket,
                         encoding: c.encoding,
-                        color: c.color,
+                        color,
                         ..Default::default()
                     },
                     size,
                 )
                 .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?;
-                Content::Store(Box::new(scene))
+                (Content::Store(Box::new(scene)), color)
             }
             (_, Some(data)) => {
-                if !crate::colors::available_modes(&data.layout).contains(&c.color) {
-                    return Err(ViewerError::Config(format!(
-                        "{} has no {} attribute to colour by",
-                        data.name,
-                        c.color.name()
-                    )));
-                }
-                let scale = data.fitted(c.color);
-                Content::upload(&ctx, data, &scale, c.encoding, c.page_size)?
+                let color = usable_color(&data.layout, c.color, &data.name);
+                let scale = data.fitted(color);
+                (
+                    Content::upload(&ctx, data, &scale, c.encoding, c.page_size)?,
+                    color,
+                )
             }
             (_, None) => return Err(ViewerError::Load("the points were not loaded".into())),
         };
-        let scale = content.fitted(c.color)?;
+        let scale = content.fitted(color)?;
         let camera = (c.camera)(&content.bounds()).map_err(ViewerError::Config)?;
         let mut settings = c.settings;
         settings.variant = usable_variant(&ctx, &content, settings.variant);
@@ -210,6 +214,19 @@ impl App {
             frames_done_at: None,
         })
     }
+}
+
+/// The requested colouring, or elevation (every point has one) when the data lacks the
+/// attribute (said on stderr): the default `--color rgb` must not stop data without colours.
+fn usable_color(layout: &PointLayout, wanted: ColorMode, name: &str) -> ColorMode {
+    if crate::colors::available_modes(layout).contains(&wanted) {
+        return wanted;
+    }
+    eprintln!(
+        "note: {name} has no {} attribute; colouring by elevation",
+        wanted.name()
+    );
+    ColorMode::Elevation
 }
 
 /// The requested variant, or what replaces it on this adapter/content (said on stderr).
