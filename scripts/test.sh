@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# The whole test suite: formatting, lints, and every test (GPU tests run on lavapipe without a GPU).
+# The whole test suite: formatting, lints, and every test (GPU tests run on lavapipe without a GPU;
+# the viewer's window test runs under an Xvfb server it starts itself).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/ensure-vulkan.sh
+bash scripts/ensure-xvfb.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
 cargo test --workspace --locked

@@ -15,6 +15,7 @@ mod progress;
 mod render_cmd;
 mod scene;
 mod view_args;
+mod view_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -44,6 +45,8 @@ enum Command {
     Metrics(metrics_cmd::Args),
     /// Render one frame headless into a PNG (no INPUT: the built-in demo scene).
     Render(render_cmd::Args),
+    /// Open the interactive viewer (no INPUT: the built-in demo scene).
+    View(view_cmd::Args),
     /// Time every rasterizer × vertex order × encoding against a copy kernel (paper Table 1).
     BenchRaster(bench_raster_cmd::Args),
     /// Fly a store along a camera path: FPS statistics, stage breakdown, memory; or --quality.
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Export(a) => export_cmd::run(a),
         Command::Metrics(a) => metrics_cmd::run(a),
         Command::Render(a) => render_cmd::run(a),
+        Command::View(a) => view_cmd::run(a),
         Command::BenchRaster(a) => bench_raster_cmd::run(a),
         Command::Bench(a) => bench_cmd::run(a),
         Command::BenchRead(a) => bench_read_cmd::run(a),

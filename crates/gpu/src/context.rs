@@ -82,8 +82,33 @@ impl GpuContext {
 
     /// Opens the requested adapter with every useful feature it has.
     pub fn new(request: &AdapterRequest) -> Result<Self, GpuError> {
+        Self::open(&Self::instance(), request, None).map(|(ctx, _)| ctx)
+    }
+
+    /// Like [`new`](Self::new), for drawing into a window: creates the surface of `window`,
+    /// considers only adapters that can present to it, and returns what the surface supports
+    /// on the chosen adapter (formats, present modes) for configuring it.
+    pub fn for_surface<'w>(
+        request: &AdapterRequest,
+        window: impl Into<wgpu::SurfaceTarget<'w>>,
+    ) -> Result<(Self, wgpu::Surface<'w>, wgpu::SurfaceCapabilities), GpuError> {
         let instance = Self::instance();
+        let surface = instance
+            .create_surface(window)
+            .map_err(|e| GpuError::Device(format!("creating the window surface: {e}")))?;
+        let (ctx, adapter) = Self::open(&instance, request, Some(&surface))?;
+        let caps = surface.get_capabilities(&adapter);
+        Ok((ctx, surface, caps))
+    }
+
+    fn open(
+        instance: &wgpu::Instance,
+        request: &AdapterRequest,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<(Self, wgpu::Adapter), GpuError> {
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        // An adapter that cannot present to the window is useless to it (e.g. a second GPU).
+        let presents = |a: &wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));
         let found: Vec<String> = adapters.iter().map(|a| describe(&a.get_info())).collect();
         let adapter = match &request.name {
             Some(want) => {
@@ -101,6 +126,7 @@ impl GpuContext {
             }
             None => adapters
                 .iter()
+                .filter(|a| presents(a))
                 .min_by_key(|a| {
                     let f = a.features();
                     let atomics = f.contains(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
@@ -115,6 +141,13 @@ impl GpuContext {
             });
         };
         let info = adapter.get_info();
+        if !presents(&adapter) {
+            return Err(GpuError::Unsupported {
+                what: "presenting to the window".into(),
+                why: "the adapter cannot draw into this window's surface".into(),
+                adapter: describe(&info),
+            });
+        }
         let features = if request.webgpu_baseline {
             adapter.features() & wgpu::Features::TIMESTAMP_QUERY
         } else {
@@ -149,13 +182,14 @@ impl GpuContext {
                 slot.get_or_insert_with(|| e.to_string());
             }
         }));
-        Ok(Self {
+        let ctx = Self {
             device,
             queue,
             info,
             caps,
             uncaptured,
-        })
+        };
+        Ok((ctx, adapter))
     }
 
     pub fn describe(&self) -> String {

@@ -1,0 +1,94 @@
+//! `pointlet view`: the interactive viewer (crates/viewer), with the camera and drawing
+//! arguments of `render` so that both show the same image of the same view.
+
+use crate::view_args::{CameraArgs, DrawArgs};
+use anyhow::Result;
+use pointlet_gpu::RenderSettings;
+use pointlet_viewer::{Automation, Input, StoreBudgets, ViewerConfig};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A store (streamed within the budgets) or any point file (read whole); without one, the
+    /// built-in demo scene.
+    pub input: Option<PathBuf>,
+    /// Window width in pixels.
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    /// Window height in pixels.
+    #[arg(long, default_value_t = 800)]
+    pub height: u32,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub draw: DrawArgs,
+    /// Points of the demo scene (without INPUT).
+    #[arg(long, default_value_t = crate::scene::DEMO_POINTS, value_parser = crate::parse_count_arg)]
+    pub demo_points: u64,
+    /// GPU memory for a store's points, tables and frame.
+    #[arg(long, default_value = "2GiB", value_parser = crate::parse_bytes_arg)]
+    pub vram_budget: u64,
+    /// RAM for a store's cached points.
+    #[arg(long, default_value = "4GiB", value_parser = crate::parse_bytes_arg)]
+    pub ram_budget: u64,
+    /// The LoD's point bucket B for stores (points drawn per moving frame).
+    #[arg(long, default_value = "25M", value_parser = crate::parse_count_arg)]
+    pub bucket: u64,
+    /// Automation: draw this many frames in the window, then exit.
+    #[arg(long)]
+    pub frames: Option<u32>,
+    /// With --frames: save the rendered image (as `render` writes it) once the view has
+    /// converged and the frames are drawn.
+    #[arg(long, requires = "frames")]
+    pub screenshot: Option<PathBuf>,
+    /// With --frames: save the whole window, overlay included.
+    #[arg(long, requires = "frames")]
+    pub window_screenshot: Option<PathBuf>,
+    /// With --frames: seconds a store may take to converge after the frames before failing.
+    #[arg(long, default_value_t = 120.0)]
+    pub converge_timeout: f64,
+    /// Draw as fast as possible instead of at the display's refresh rate.
+    #[arg(long)]
+    pub no_vsync: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let input = match args.input {
+        Some(p) if crate::load::is_store_path(&p) => Input::Store(p),
+        Some(p) => Input::File(p),
+        None => Input::Demo {
+            points: args.demo_points,
+            seed: crate::scene::DEMO_SEED,
+        },
+    };
+    let camera_args = args.camera.clone();
+    let config = ViewerConfig {
+        input,
+        camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
+        size: (args.width, args.height),
+        settings: RenderSettings {
+            variant: args.draw.raster,
+            screen: args.draw.screen(),
+            ..Default::default()
+        },
+        color: args.draw.color,
+        encoding: args.draw.encoding,
+        page_size: args.draw.page_size,
+        order: args.draw.order,
+        adapter: args.draw.adapter.clone(),
+        store: StoreBudgets {
+            vram: args.vram_budget,
+            ram: args.ram_budget,
+            bucket: args.bucket as f64,
+        },
+        automation: args.frames.map(|frames| Automation {
+            frames,
+            screenshot: args.screenshot,
+            window_screenshot: args.window_screenshot,
+            converge_timeout_s: args.converge_timeout,
+        }),
+        vsync: !args.no_vsync,
+    };
+    pointlet_viewer::run(config)?;
+    Ok(())
+}

@@ -1,0 +1,185 @@
+//! What the points are coloured by, as the UI edits it, and the classification legend.
+
+use pointlet_core::color::{classification_color, classification_name, ColorMode, ColorScale};
+use pointlet_core::PointLayout;
+
+/// The colour modes a layout can show (RGB and GPS time only where the data has them).
+pub fn available_modes(layout: &PointLayout) -> Vec<ColorMode> {
+    ColorMode::ALL
+        .into_iter()
+        .filter(|m| pointlet_engine::has_attribute(layout, *m))
+        .collect()
+}
+
+/// Which parts of the scale mean something for a mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScaleKnobs {
+    pub range: bool,
+    pub gamma: bool,
+    pub ramp: bool,
+}
+
+pub fn knobs(mode: ColorMode) -> ScaleKnobs {
+    match mode {
+        // Intensity is drawn in grey, whatever ramp is chosen.
+        ColorMode::Intensity => ScaleKnobs {
+            range: true,
+            gamma: true,
+            ramp: false,
+        },
+        ColorMode::Elevation | ColorMode::GpsTime => ScaleKnobs {
+            range: true,
+            gamma: true,
+            ramp: true,
+        },
+        _ => ScaleKnobs {
+            range: false,
+            gamma: false,
+            ramp: false,
+        },
+    }
+}
+
+/// The colouring the UI shows and edits, and the one the GPU holds: they differ until the
+/// app re-uploads colours.
+#[derive(Clone, Debug)]
+pub struct ColorState {
+    pub available: Vec<ColorMode>,
+    /// What the UI edits.
+    pub scale: ColorScale,
+    applied: Option<ColorScale>,
+    /// Range, gamma and ramp can be edited (in-memory data); stores only switch modes.
+    pub adjustable: bool,
+}
+
+impl ColorState {
+    /// Starts with `scale` already on the GPU.
+    pub fn new(available: Vec<ColorMode>, scale: ColorScale, adjustable: bool) -> Self {
+        Self {
+            available,
+            scale,
+            applied: Some(scale),
+            adjustable,
+        }
+    }
+
+    pub fn mode(&self) -> ColorMode {
+        self.scale.mode
+    }
+
+    /// Switches to `fitted` (the data-fitted scale of another mode), keeping the chosen ramp.
+    pub fn select(&mut self, fitted: ColorScale) {
+        let ramp = self.scale.ramp;
+        self.scale = ColorScale { ramp, ..fitted };
+    }
+
+    /// The scale to upload, if the GPU does not show it yet.
+    pub fn pending(&self) -> Option<ColorScale> {
+        let wanted = self.sanitized();
+        (self.applied != Some(wanted)).then_some(wanted)
+    }
+
+    pub fn mark_applied(&mut self, scale: ColorScale) {
+        self.applied = Some(scale);
+    }
+
+    /// The edited scale with a usable range (min < max) and gamma (> 0).
+    fn sanitized(&self) -> ColorScale {
+        let mut s = self.scale;
+        if s.range[1].partial_cmp(&s.range[0]) != Some(std::cmp::Ordering::Greater) {
+            s.range[1] = s.range[0] + 1.0;
+        }
+        if !s.gamma.is_finite() || s.gamma <= 0.0 {
+            s.gamma = 1.0;
+        }
+        s
+    }
+}
+
+/// One line of the classification legend.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LegendEntry {
+    pub class: u8,
+    pub name: &'static str,
+    pub color: [u8; 3],
+    /// Points of the class, where known (in-memory data).
+    pub count: Option<u64>,
+}
+
+/// The legend: the classes present with their counts, or the standard ASPRS classes 0–18 when
+/// counts are unknown (stores are not read whole).
+pub fn legend(counts: Option<&[u64; 256]>) -> Vec<LegendEntry> {
+    let entry = |class: u8, count| LegendEntry {
+        class,
+        name: classification_name(class),
+        color: classification_color(class),
+        count,
+    };
+    match counts {
+        Some(c) => (0..=255u8)
+            .filter(|k| c[*k as usize] > 0)
+            .map(|k| entry(k, Some(c[k as usize])))
+            .collect(),
+        None => (0..=18u8).map(|k| entry(k, None)).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pointlet_core::color::Ramp;
+
+    fn scale(mode: ColorMode) -> ColorScale {
+        ColorScale {
+            mode,
+            range: [0.0, 10.0],
+            gamma: 1.0,
+            rgb_8bit: true,
+            ramp: Ramp::Viridis,
+        }
+    }
+
+    #[test]
+    fn modes_follow_the_layout() {
+        let plain = available_modes(&PointLayout::default());
+        assert!(!plain.contains(&ColorMode::Rgb) && !plain.contains(&ColorMode::GpsTime));
+        let full = available_modes(&PointLayout {
+            rgb: true,
+            gps_time: true,
+            ..Default::default()
+        });
+        assert_eq!(full.len(), ColorMode::ALL.len());
+    }
+
+    #[test]
+    fn edits_are_pending_until_applied_and_sanitized() {
+        let mut c = ColorState::new(vec![], scale(ColorMode::Elevation), true);
+        assert_eq!(c.pending(), None);
+        c.scale.ramp = Ramp::Turbo;
+        c.select(scale(ColorMode::Intensity));
+        assert_eq!(c.mode(), ColorMode::Intensity);
+        assert_eq!(
+            c.scale.ramp,
+            Ramp::Turbo,
+            "the ramp choice survives a mode switch"
+        );
+        c.scale.range = [5.0, 5.0];
+        c.scale.gamma = -1.0;
+        let p = c.pending().expect("changed");
+        assert_eq!((p.range, p.gamma), ([5.0, 6.0], 1.0));
+        c.mark_applied(p);
+        assert_eq!(c.pending(), None);
+    }
+
+    #[test]
+    fn legend_lists_present_classes_or_the_standard_ones() {
+        let mut counts = [0u64; 256];
+        counts[2] = 10;
+        counts[6] = 3;
+        let l = legend(Some(&counts));
+        assert_eq!(l.len(), 2);
+        assert_eq!((l[0].name, l[0].count), ("ground", Some(10)));
+        assert_eq!(l[1].color, classification_color(6));
+        assert_eq!(legend(None).len(), 19);
+    }
+}

@@ -1,0 +1,205 @@
+//! What is on screen: in-memory points in a static `GpuCloud`, or a store drawn through the
+//! virtualized `VirtualScene`. One interface for drawing, picking and recolouring either.
+
+use crate::colors::{available_modes, legend, ColorState, LegendEntry};
+use crate::memory::MemoryData;
+use crate::ViewerError;
+use pointlet_core::color::ColorScale;
+use pointlet_core::{Aabb, Camera};
+use pointlet_engine::{FrameReport, VirtualScene};
+use pointlet_gpu::{
+    GpuCloud, GpuContext, PointEncoding, RasterVariant, RenderSettings, RenderTarget, Renderer,
+};
+
+/// Pixels around the cursor searched for a point when picking.
+pub const PICK_RADIUS: u32 = 6;
+
+pub enum Content {
+    Memory(Box<InMemory>),
+    Store(Box<VirtualScene>),
+}
+
+/// Points held in RAM with their attribute columns, and their GPU copy.
+pub struct InMemory {
+    pub data: MemoryData,
+    pub cloud: GpuCloud,
+}
+
+/// What a frame drew.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Drawn {
+    pub points: u64,
+    /// The image is final for this view (stores: accumulated to full detail).
+    pub converged: bool,
+    /// The virtualized scene's account of the frame (stores only).
+    pub report: Option<FrameReport>,
+}
+
+impl Content {
+    /// Uploads in-memory data coloured by `scale`.
+    pub fn upload(
+        ctx: &GpuContext,
+        data: MemoryData,
+        scale: &ColorScale,
+        encoding: PointEncoding,
+        page_size: u32,
+    ) -> Result<Self, ViewerError> {
+        let set = data.point_set(scale);
+        let cloud = GpuCloud::upload(ctx, &set, encoding, page_size)
+            .map_err(|e| ViewerError::Gpu(format!("uploading {}: {e}", data.name)))?;
+        Ok(Content::Memory(Box::new(InMemory { data, cloud })))
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Content::Memory(m) => m.data.name.clone(),
+            Content::Store(s) => s.store().path().display().to_string(),
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            Content::Memory(m) => m.data.bounds,
+            Content::Store(s) => s.bounds(),
+        }
+    }
+
+    pub fn points(&self) -> u64 {
+        match self {
+            Content::Memory(m) => m.data.len() as u64,
+            Content::Store(s) => s.points(),
+        }
+    }
+
+    /// GPU bytes of point data and tables (the render target not included).
+    pub fn gpu_bytes(&self) -> u64 {
+        match self {
+            Content::Memory(m) => m.cloud.point_bytes(),
+            Content::Store(s) => s.gpu_bytes(),
+        }
+    }
+
+    /// Whether `variant` can draw this content (the point-list baseline draws static clouds).
+    pub fn supports(&self, variant: RasterVariant) -> bool {
+        !(matches!(self, Content::Store(_)) && variant == RasterVariant::HwPoints)
+    }
+
+    /// The colouring state to start from: `scale` is already on the GPU.
+    pub fn color_state(&self, scale: ColorScale) -> ColorState {
+        match self {
+            Content::Memory(m) => ColorState::new(available_modes(&m.data.layout), scale, true),
+            Content::Store(s) => {
+                ColorState::new(available_modes(&s.store().header().layout), scale, false)
+            }
+        }
+    }
+
+    /// The data-fitted scale of `mode`.
+    pub fn fitted(&self, mode: pointlet_core::color::ColorMode) -> Result<ColorScale, ViewerError> {
+        match self {
+            Content::Memory(m) => Ok(m.data.fitted(mode)),
+            Content::Store(s) => pointlet_engine::fit_scale(s.store(), mode)
+                .map_err(|e| ViewerError::Load(e.to_string())),
+        }
+    }
+
+    pub fn legend(&self) -> Vec<LegendEntry> {
+        match self {
+            Content::Memory(m) => legend(Some(&m.data.class_counts)),
+            Content::Store(_) => legend(None),
+        }
+    }
+
+    /// Puts `scale`'s colours on the GPU: in memory, every colour is recomputed and only the
+    /// colour stream uploaded; a store reloads colours through its cache as they are needed
+    /// (only the mode can change there: the engine fits ranges itself).
+    pub fn apply_color(&mut self, ctx: &GpuContext, scale: &ColorScale) -> Result<(), ViewerError> {
+        match self {
+            Content::Memory(m) => m
+                .cloud
+                .recolor(ctx, &m.data.colors(scale))
+                .map_err(|e| ViewerError::Gpu(format!("recolouring: {e}"))),
+            Content::Store(s) => {
+                if s.color_mode() == scale.mode {
+                    return Ok(());
+                }
+                s.set_color(scale.mode)
+                    .map_err(|e| ViewerError::Gpu(e.to_string()))
+            }
+        }
+    }
+
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+    ) -> Result<Drawn, ViewerError> {
+        match self {
+            Content::Memory(m) => {
+                renderer
+                    .render(ctx, &mut m.cloud, camera, settings, target)
+                    .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+                Ok(Drawn {
+                    points: m.cloud.points,
+                    converged: true,
+                    report: None,
+                })
+            }
+            Content::Store(s) => {
+                let report = s
+                    .frame(ctx, renderer, camera, settings, target)
+                    .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+                // Variants that cannot accumulate (HQS) never reach the engine's full-detail
+                // image; theirs is final once every point the LoD asks for is drawn and
+                // nothing is left to load.
+                let complete = !settings.variant.accumulates()
+                    && report.requested_points > 0
+                    && report.drawn_points >= report.requested_points
+                    && report.cache.queued == 0;
+                Ok(Drawn {
+                    points: report.drawn_points,
+                    converged: report.converged || complete,
+                    report: Some(report),
+                })
+            }
+        }
+    }
+
+    /// The exact coordinates of the point nearest to `pixel` on screen, if any is near.
+    pub fn pick(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+        pixel: [u32; 2],
+    ) -> Result<Option<[f64; 3]>, ViewerError> {
+        let gpu = |e: pointlet_gpu::GpuError| ViewerError::Gpu(format!("picking: {e}"));
+        match self {
+            Content::Memory(m) => {
+                let hit = renderer
+                    .pick(
+                        ctx,
+                        &mut m.cloud,
+                        camera,
+                        settings,
+                        target,
+                        pixel,
+                        PICK_RADIUS,
+                    )
+                    .map_err(gpu)?;
+                Ok(hit.and_then(|h| m.data.position(h.id)))
+            }
+            Content::Store(s) => {
+                let hit = s
+                    .pick(ctx, renderer, camera, settings, target, pixel, PICK_RADIUS)
+                    .map_err(|e| ViewerError::Gpu(format!("picking: {e}")))?;
+                Ok(hit.map(|p| p.position))
+            }
+        }
+    }
+}

@@ -1,0 +1,146 @@
+//! The viewer's state and frame logic without a window: GPU objects, content, camera
+//! controller, render settings, colouring and tools. The window (app.rs) feeds it input and
+//! presents its image; tests drive it headless.
+
+use crate::colors::ColorState;
+use crate::content::{Content, Drawn};
+use crate::navigation::Navigator;
+use crate::stats::FrameStats;
+use crate::tools::{Bookmarks, Measure, PathRecorder};
+use crate::ViewerError;
+use pointlet_core::color::ColorScale;
+use pointlet_core::Camera;
+use pointlet_gpu::{GpuContext, RenderSettings, RenderTarget, Renderer};
+
+/// Seconds between two keyframes of a recorded camera path.
+const RECORD_INTERVAL: f64 = 0.1;
+
+pub struct View {
+    pub ctx: GpuContext,
+    pub renderer: Renderer,
+    pub target: RenderTarget,
+    pub content: Content,
+    pub nav: Navigator,
+    pub settings: RenderSettings,
+    pub colors: ColorState,
+    pub measure: Measure,
+    pub bookmarks: Bookmarks,
+    pub recorder: PathRecorder,
+    pub stats: FrameStats,
+    /// What the last frame drew.
+    pub drawn: Drawn,
+    /// Camera and settings of the last frame: an unchanged view of in-memory data needs no
+    /// new frame.
+    last_view: Option<(Camera, RenderSettings, (u32, u32))>,
+}
+
+impl View {
+    /// `scale` is the colouring `content` was uploaded with.
+    pub fn new(
+        ctx: GpuContext,
+        content: Content,
+        camera: Camera,
+        settings: RenderSettings,
+        scale: ColorScale,
+        size: (u32, u32),
+    ) -> Result<Self, ViewerError> {
+        let target =
+            RenderTarget::new(&ctx, size.0, size.1).map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        let renderer = Renderer::new(&ctx);
+        let nav = Navigator::new(camera, content.bounds());
+        let colors = content.color_state(scale);
+        Ok(Self {
+            ctx,
+            renderer,
+            target,
+            nav,
+            settings,
+            colors,
+            content,
+            measure: Measure::default(),
+            bookmarks: Bookmarks::default(),
+            recorder: PathRecorder::new(RECORD_INTERVAL),
+            stats: FrameStats::default(),
+            drawn: Drawn::default(),
+            last_view: None,
+        })
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.target.width, self.target.height)
+    }
+
+    /// Follows the window's size (a new render target; nothing happens for the same size).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), ViewerError> {
+        if (width, height) == self.size() || width == 0 || height == 0 {
+            return Ok(());
+        }
+        self.target = RenderTarget::new(&self.ctx, width, height)
+            .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        self.last_view = None;
+        Ok(())
+    }
+
+    /// True when a new frame would differ from the last one: the view changed, colours are
+    /// pending, keys are held, or a store is still loading/accumulating.
+    pub fn needs_frame(&self) -> bool {
+        let view = (self.nav.camera, self.settings, self.size());
+        self.last_view != Some(view)
+            || self.colors.pending().is_some()
+            || self.nav.moving()
+            || !self.drawn.converged
+    }
+
+    /// Advances key movement, uploads pending colours and draws one frame at clock `now`.
+    pub fn frame(&mut self, now: f64, dt: f64) -> Result<&Drawn, ViewerError> {
+        self.nav.update(dt);
+        if let Some(scale) = self.colors.pending() {
+            self.content.apply_color(&self.ctx, &scale)?;
+            self.colors.mark_applied(scale);
+        }
+        if self.recorder.recording() {
+            self.recorder.sample(now, &self.nav.camera);
+        }
+        let camera = self.nav.camera;
+        self.drawn = self.content.frame(
+            &self.ctx,
+            &mut self.renderer,
+            &camera,
+            &self.settings,
+            &mut self.target,
+        )?;
+        self.last_view = Some((camera, self.settings, self.size()));
+        self.stats.frame(now);
+        if self.stats.timing_due(now) {
+            // Waits for this frame's GPU work, a few times a second only.
+            self.stats.gpu = self
+                .renderer
+                .timing(&self.ctx, &self.target)
+                .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        }
+        Ok(&self.drawn)
+    }
+
+    /// The exact coordinates of the point under `pixel` (None: nothing there).
+    pub fn pick(&mut self, pixel: [u32; 2]) -> Result<Option<[f64; 3]>, ViewerError> {
+        let camera = self.nav.camera;
+        let hit = self.content.pick(
+            &self.ctx,
+            &mut self.renderer,
+            &camera,
+            &self.settings,
+            &mut self.target,
+            pixel,
+        )?;
+        // The pick pass reused the frame's pixel buffers: draw afresh next time.
+        self.last_view = None;
+        Ok(hit)
+    }
+
+    /// The last frame's image, RGBA8 rows top to bottom (what `pointlet render` writes).
+    pub fn image(&self) -> Result<Vec<u8>, ViewerError> {
+        self.target
+            .read_rgba(&self.ctx)
+            .map_err(|e| ViewerError::Gpu(format!("reading the image back: {e}")))
+    }
+}
