@@ -6,7 +6,7 @@
 use crate::residency::ResidencySet;
 use crate::source::StoreSource;
 use crate::EngineError;
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::{Aabb, Camera, Quantization};
 use pointlet_gpu::{
     GpuContext, PageJob, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
@@ -223,21 +223,41 @@ impl VirtualScene {
         self.config.bucket = bucket.max(1.0);
     }
 
-    /// Colours by another attribute. The RAM cache reloads with the new colours; GPU pages keep
-    /// their positions and get only their colour stream replaced as the new colours arrive.
+    /// The colouring the loaders apply.
+    pub fn color_scale(&self) -> ColorScale {
+        self.cache.source().scale()
+    }
+
+    /// Colours by another attribute, with ranges fitted to the data.
     pub fn set_color(&mut self, mode: ColorMode) -> Result<(), EngineError> {
-        if !crate::source::has_attribute(&self.store.header().layout, mode) {
-            return Err(EngineError::Config(format!(
-                "{} has no {} attribute to colour by",
-                self.store.path().display(),
-                mode.name()
-            )));
-        }
+        self.check_color_mode(mode)?;
         let scale = crate::source::fit_scale(&self.store, mode)?;
+        self.set_color_scale(scale)
+    }
+
+    /// Colours with `scale` (mode, range, gamma, ramp). The RAM cache reloads with the new
+    /// colours; GPU pages keep their positions and get only their colour stream replaced as
+    /// the new colours arrive.
+    pub fn set_color_scale(&mut self, scale: ColorScale) -> Result<(), EngineError> {
+        self.check_color_mode(scale.mode)?;
+        if scale == self.color_scale() {
+            return Ok(());
+        }
         self.cache.source().set_scale(scale);
         self.cache.clear();
         self.epoch += 1;
         Ok(())
+    }
+
+    fn check_color_mode(&self, mode: ColorMode) -> Result<(), EngineError> {
+        if crate::source::has_attribute(&self.store.header().layout, mode) {
+            return Ok(());
+        }
+        Err(EngineError::Config(format!(
+            "{} has no {} attribute to colour by",
+            self.store.path().display(),
+            mode.name()
+        )))
     }
 
     /// The point nearest to `pixel` within `radius` pixels among those drawn for `camera`.

@@ -48,18 +48,15 @@ pub struct ColorState {
     /// What the UI edits.
     pub scale: ColorScale,
     applied: Option<ColorScale>,
-    /// Range, gamma and ramp can be edited (in-memory data); stores only switch modes.
-    pub adjustable: bool,
 }
 
 impl ColorState {
     /// Starts with `scale` already on the GPU.
-    pub fn new(available: Vec<ColorMode>, scale: ColorScale, adjustable: bool) -> Self {
+    pub fn new(available: Vec<ColorMode>, scale: ColorScale) -> Self {
         Self {
             available,
             scale,
             applied: Some(scale),
-            adjustable,
         }
     }
 
@@ -153,7 +150,7 @@ mod tests {
 
     #[test]
     fn edits_are_pending_until_applied_and_sanitized() {
-        let mut c = ColorState::new(vec![], scale(ColorMode::Elevation), true);
+        let mut c = ColorState::new(vec![], scale(ColorMode::Elevation));
         assert_eq!(c.pending(), None);
         c.scale.ramp = Ramp::Turbo;
         c.select(scale(ColorMode::Intensity));

@@ -87,9 +87,9 @@ impl Content {
     /// The colouring state to start from: `scale` is already on the GPU.
     pub fn color_state(&self, scale: ColorScale) -> ColorState {
         match self {
-            Content::Memory(m) => ColorState::new(available_modes(&m.data.layout), scale, true),
+            Content::Memory(m) => ColorState::new(available_modes(&m.data.layout), scale),
             Content::Store(s) => {
-                ColorState::new(available_modes(&s.store().header().layout), scale, false)
+                ColorState::new(available_modes(&s.store().header().layout), scale)
             }
         }
     }
@@ -119,13 +119,9 @@ impl Content {
                 .cloud
                 .recolor(ctx, &m.data.colors(scale))
                 .map_err(|e| ViewerError::Gpu(format!("recolouring: {e}"))),
-            Content::Store(s) => {
-                if s.color_mode() == scale.mode {
-                    return Ok(());
-                }
-                s.set_color(scale.mode)
-                    .map_err(|e| ViewerError::Gpu(e.to_string()))
-            }
+            Content::Store(s) => s
+                .set_color_scale(*scale)
+                .map_err(|e| ViewerError::Gpu(e.to_string())),
         }
     }
 

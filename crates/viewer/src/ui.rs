@@ -9,7 +9,7 @@ use crate::view::View;
 use egui::{Color32, RichText};
 use pointlet_core::color::{ColorMode, Ramp};
 use pointlet_core::size::format_bytes;
-use pointlet_gpu::{EdlSettings, RasterVariant};
+use pointlet_gpu::{EdlSettings, OcclusionSettings, RasterVariant};
 
 /// The keys, for the help window and the README.
 pub const CONTROLS: &[(&str, &str)] = &[
@@ -145,7 +145,7 @@ fn coloring(p: &mut egui::Ui, view: &mut View, actions: &mut Vec<Action>) {
                     }
                 });
             let k = knobs(current);
-            if view.colors.adjustable {
+            {
                 let scale = &mut view.colors.scale;
                 if k.range {
                     s.horizontal(|h| {
@@ -174,8 +174,6 @@ fn coloring(p: &mut egui::Ui, view: &mut View, actions: &mut Vec<Action>) {
                 if (k.range || k.gamma) && s.button("fit to data").clicked() {
                     actions.push(Action::ResetColorScale);
                 }
-            } else if k.range {
-                s.label(RichText::new("stores: ranges are fitted by the engine").small());
             }
             if current == ColorMode::Classification {
                 legend(s, view);
@@ -264,9 +262,15 @@ fn rendering(p: &mut egui::Ui, view: &mut View) {
                 s.add(egui::Slider::new(&mut e.strength, 0.0..=5.0).text("EDL strength"));
                 s.add(egui::Slider::new(&mut e.radius, 0.5..=4.0).text("EDL radius (px)"));
             }
-            // Reserved for the occlusion filter that ScreenSettings does not have yet.
-            s.add_enabled(false, egui::Checkbox::new(&mut false, "occlusion filter"))
-                .on_disabled_hover_text("not in the renderer yet");
+            // Removes far points seen through gaps of nearer surfaces before hole filling.
+            let mut occlusion = screen.occlusion.is_some();
+            if s.checkbox(&mut occlusion, "occlusion filter").changed() {
+                screen.occlusion = occlusion.then(OcclusionSettings::default);
+            }
+            if let Some(o) = &mut screen.occlusion {
+                s.add(egui::Slider::new(&mut o.radius, 1..=8).text("occlusion radius (px)"));
+                s.add(egui::Slider::new(&mut o.threshold, 0.01..=0.5).text("occlusion β"));
+            }
             s.horizontal(|h| {
                 let bg = &mut screen.background;
                 let mut rgb = [bg[0], bg[1], bg[2]];

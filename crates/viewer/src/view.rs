@@ -115,7 +115,7 @@ impl View {
             // Waits for this frame's GPU work, a few times a second only.
             self.stats.gpu = self
                 .renderer
-                .timing(&self.ctx, &self.target)
+                .timing(&self.ctx, &mut self.target)
                 .map_err(|e| ViewerError::Gpu(e.to_string()))?;
         }
         Ok(&self.drawn)
