@@ -6,6 +6,7 @@
 #   store   generate the 1 G-point lean store under /tmp (issue 4)
 #   orbit   bench along the orbit path, warm page cache, then cold (issue 4)
 #   quality PSNR of LoD images against full detail, 200 M points (issue 4)
+#   threads residency-thread A/B on 200 M points
 #   diag    a quick 200 M-point orbit for profiling the residency step
 set -euo pipefail
 phase=$1
@@ -42,6 +43,20 @@ case "$phase" in
     echo 3 >/proc/sys/vm/drop_caches
     "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
       --bucket 25M --loaders 8 --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
+    ;;
+  threads)
+    # Residency threads A/B on 200 M points (VRAM 1/20): one per core (default), half the
+    # cores, the default again (run-to-run spread).
+    small=/tmp/bench-200m.pointlet
+    "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1 | tee "$out/store.txt"
+    size=$(stat -c %s "$small")
+    common=(--frames 1200 --orbit-seconds 20 --vram-budget $((size / 20)) --ram-budget 4GiB --bucket 25M --loaders 8)
+    sync
+    for run in all half all2; do
+      t=0
+      [ "$run" = half ] && t=$(($(nproc) / 2))
+      "$bin" bench "$small" "${common[@]}" --residency-threads "$t" --json "$out/$run.json" 2>&1 | tee "$out/$run.txt"
+    done
     ;;
   diag)
     small=/tmp/bench-200m.pointlet

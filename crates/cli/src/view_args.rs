@@ -128,6 +128,9 @@ pub struct VirtualArgs {
     /// Loader threads reading from disk.
     #[arg(long, default_value_t = 4)]
     pub loaders: usize,
+    /// Threads of the per-frame residency work (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub residency_threads: usize,
 }
 
 impl VirtualArgs {
@@ -139,6 +142,7 @@ impl VirtualArgs {
             encoding: draw.encoding,
             page_size: self.pool_page_size,
             loaders: self.loaders,
+            threads: self.residency_threads,
             upload_per_frame: self.upload_per_frame,
             color: draw.color,
         }

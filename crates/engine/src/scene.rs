@@ -31,6 +31,10 @@ pub struct SceneConfig {
     /// Points per GPU page.
     pub page_size: u32,
     pub loaders: usize,
+    /// Threads of the residency step's parallel passes (0: one per core). A pass waits for its
+    /// slowest thread, so fewer threads than cores may leave loaders and the driver room
+    /// without preempting a worker (not yet measured on a GPU machine).
+    pub threads: usize,
     /// Points moved from RAM to the GPU per frame at most (keeps frames steady).
     pub upload_per_frame: u64,
     pub color: ColorMode,
@@ -45,6 +49,7 @@ impl Default for SceneConfig {
             encoding: PointEncoding::Compact8,
             page_size: 256,
             loaders: 4,
+            threads: 0,
             upload_per_frame: 1 << 20,
             color: ColorMode::Rgb,
         }
@@ -109,6 +114,8 @@ pub struct VirtualScene {
     accumulation: bool,
     /// Per pointlet: the generation of the colours in its GPU pages.
     gpu_epoch: Vec<u32>,
+    /// Runs the residency step's parallel passes.
+    pool: Arc<rayon::ThreadPool>,
 }
 
 /// A point under the cursor, read back from the store: exact coordinates.
@@ -181,8 +188,18 @@ impl VirtualScene {
             },
         )
         .map_err(|e| EngineError::Config(format!("starting loader threads: {e}")))?;
+        let threads = match config.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            t => t,
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .thread_name(|k| format!("residency-{k}"))
+            .build()
+            .map_err(|e| EngineError::Config(format!("starting residency threads: {e}")))?;
         let n = descs.len();
         Ok(Self {
+            pool: Arc::new(pool),
             store,
             cache,
             residency: ResidencySet::new(n, slots, config.page_size),
@@ -380,7 +397,8 @@ impl VirtualScene {
             accumulating: accumulate,
             ..Default::default()
         };
-        self.update_residency(accumulate, &mut report);
+        let pool = Arc::clone(&self.pool);
+        pool.install(|| self.update_residency(accumulate, &mut report));
         report.residency_ms = started.elapsed().as_secs_f64() * 1e3;
         renderer.render_paged(
             ctx,
@@ -390,16 +408,18 @@ impl VirtualScene {
             &PagedView { bucket, accumulate },
             target,
         )?;
-        report.requested_points = self.requested.par_iter().map(|v| *v as u64).sum();
-        report.drawn_points = self.drawn.par_iter().map(|v| *v as u64).sum();
-        report.pages_resident = self.residency.resident_pages(self.slots);
-        report.gpu_points = self
-            .residency
-            .windows()
-            .par_iter()
-            .map(|w| w.points() as u64)
-            .sum();
-        report.converged = self.converged();
+        pool.install(|| {
+            report.requested_points = self.requested.par_iter().map(|v| *v as u64).sum();
+            report.drawn_points = self.drawn.par_iter().map(|v| *v as u64).sum();
+            report.pages_resident = self.residency.resident_pages(self.slots);
+            report.gpu_points = self
+                .residency
+                .windows()
+                .par_iter()
+                .map(|w| w.points() as u64)
+                .sum();
+            report.converged = self.converged();
+        });
         report.cache = self.cache.stats();
         if let Some(e) = self.cache.take_error() {
             return Err(EngineError::Read(e.to_string()));

@@ -1,0 +1,87 @@
+//! A store rendered within a RAM budget: the process's peak memory does not grow with the
+//! store's size (the RAM cache holds at most --ram-budget), while a generous budget lets it.
+
+mod common;
+use common::*;
+use std::process::{Command, Stdio};
+
+const MIB: u64 = 1 << 20;
+
+/// Peak resident memory of one `pointlet` run, in bytes (from the kernel's accounting of that
+/// child alone). `wait4` reaps the child, which clippy cannot see.
+#[allow(clippy::zombie_processes)]
+fn peak_rss(args: &[&str]) -> u64 {
+    let child = Command::new(env!("CARGO_BIN_EXE_pointlet"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("starting pointlet");
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: rusage is plain old data; wait4 fills it for our own child.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid, "waiting for pointlet");
+    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+        ok(args); // Reruns it to show its error.
+        panic!("pointlet {args:?} failed");
+    }
+    usage.ru_maxrss as u64 * 1024
+}
+
+#[test]
+fn streaming_a_larger_store_needs_no_more_memory_than_the_ram_budget() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let small = dir.path().join("small.pointlet");
+    let large = dir.path().join("large.pointlet");
+    // The same pointlet count, so per-pointlet tables cost the same; 13× the points.
+    for (path, points) in [(&small, "300k"), (&large, "4M")] {
+        ok(&[
+            "generate",
+            "--points",
+            points,
+            "--pointlets",
+            "1000",
+            "-o",
+            s(path),
+        ]);
+    }
+    let image = dir.path().join("out.png");
+    let render = |store: &std::path::Path, ram: &str| {
+        peak_rss(&[
+            "render",
+            s(store),
+            "-o",
+            s(&image),
+            "--width",
+            "320",
+            "--height",
+            "200",
+            "--vram-budget",
+            "96MiB",
+            "--ram-budget",
+            ram,
+            "--loaders",
+            "2",
+        ])
+    };
+    let small_rss = render(&small, "8MiB");
+    let large_rss = render(&large, "8MiB");
+    let large_unbounded = render(&large, "1GiB");
+    // The large store's 4 M points take 61 MiB as read; within the budget only 8 MiB of them
+    // may stay (plus allocator and staging slack).
+    assert!(
+        large_rss <= small_rss + 8 * MIB + 16 * MIB,
+        "peak RSS {} MiB for 4 M points vs {} MiB for 300 k, budget 8 MiB",
+        large_rss / MIB,
+        small_rss / MIB
+    );
+    // The check can fail: a budget that fits the store lets the cache keep it.
+    assert!(
+        large_unbounded > large_rss + 48 * MIB,
+        "with a 1 GiB budget: {} MiB, with 8 MiB: {} MiB",
+        large_unbounded / MIB,
+        large_rss / MIB
+    );
+}
