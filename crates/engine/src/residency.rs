@@ -31,6 +31,8 @@ pub struct ResidencySet {
     is_dirty: Vec<bool>,
     /// Pages given a slot since the last take: (pointlet, page index, slot).
     new_pages: Vec<[u32; 3]>,
+    /// Σ window points, kept up to date by every change.
+    points: u64,
 }
 
 impl ResidencySet {
@@ -44,7 +46,13 @@ impl ResidencySet {
             dirty: Vec::new(),
             is_dirty: vec![false; pointlets],
             new_pages: Vec::new(),
+            points: 0,
         }
+    }
+
+    /// Points held in GPU pages, all pointlets together.
+    pub fn resident_points(&self) -> u64 {
+        self.points
     }
 
     pub fn page_size(&self) -> u32 {
@@ -91,6 +99,7 @@ impl ResidencySet {
     /// Records that points up to `hi` were written (the caller filled the slots).
     pub fn extend(&mut self, i: usize, hi: u32) {
         if hi > self.windows[i].hi {
+            self.points += (hi - self.windows[i].hi) as u64;
             self.windows[i].hi = hi;
             self.mark(i);
         }
@@ -104,6 +113,7 @@ impl ResidencySet {
         if keep_hi >= w.hi {
             return 0;
         }
+        let before = w.points();
         let hi = keep_hi.max(w.lo);
         let pages = (hi - w.lo).div_ceil(ps) as usize;
         let mut freed = 0;
@@ -119,6 +129,7 @@ impl ResidencySet {
             w.lo = 0;
             w.hi = 0;
         }
+        self.points -= (before - w.points()) as u64;
         self.mark(i);
         freed
     }
@@ -128,6 +139,7 @@ impl ResidencySet {
     pub fn trim_head(&mut self, i: usize, keep_lo: u32) -> u32 {
         let ps = self.page_size;
         let w = &mut self.windows[i];
+        let before = w.points();
         let mut freed = 0;
         while w.lo + ps <= keep_lo.min(w.hi) {
             match w.slots.pop_front() {
@@ -146,6 +158,7 @@ impl ResidencySet {
             w.lo = start;
             w.hi = start;
         }
+        self.points -= (before - w.points()) as u64;
         if freed > 0 {
             self.mark(i);
         }
@@ -155,6 +168,7 @@ impl ResidencySet {
     /// Frees every page of pointlet `i`; the window restarts at `start` (a page boundary).
     pub fn clear(&mut self, i: usize, start: u32) -> u32 {
         let w = &mut self.windows[i];
+        self.points -= w.points() as u64;
         let freed = w.slots.len() as u32;
         for s in w.slots.drain(..) {
             self.owner[s as usize] = u32::MAX;
@@ -185,17 +199,22 @@ impl ResidencySet {
         std::mem::take(&mut self.new_pages)
     }
 
-    /// Marks every requested pointlet as used in `frame` (in parallel: runs over all of them).
-    pub fn touch_requested(&mut self, requested: &[u32], frame: u64) {
+    /// Marks every requested pointlet as used in `frame` and returns the pointlets whose window
+    /// no longer starts at 0 (one parallel pass over all of them).
+    pub fn touch_requested(&mut self, requested: &[u32], frame: u64) -> Vec<u32> {
         use rayon::prelude::*;
         self.windows
             .par_iter_mut()
             .zip(requested.par_iter())
-            .for_each(|(w, r)| {
+            .enumerate()
+            .with_min_len(1024)
+            .filter_map(|(i, (w, r))| {
                 if *r > 0 {
                     w.last_used = frame;
                 }
-            });
+                (w.lo > 0).then_some(i as u32)
+            })
+            .collect()
     }
 
     /// Pointlets changed since the last call, to publish to the GPU.
@@ -227,12 +246,14 @@ mod tests {
         assert_ne!(s0, s1);
         r.extend(0, 300);
         assert_eq!(r.window(0).slots, [s0, s1]);
+        assert_eq!(r.resident_points(), 300);
         assert_eq!(r.free_slots(), 2);
         assert_eq!(r.take_dirty(), vec![0]);
         assert!(r.take_dirty().is_empty());
         // Tail: keep 200 points → one page.
         assert_eq!(r.trim_tail(0, 200), 1);
         assert_eq!((r.window(0).lo, r.window(0).hi), (0, 200));
+        assert_eq!(r.resident_points(), 200);
         // Head: drawn up to 256 drops page 0 only once it is wholly below.
         r.extend(0, 256);
         let s2 = r.slot_for_next(0).unwrap();
@@ -241,7 +262,9 @@ mod tests {
         assert_eq!(r.trim_head(0, 260), 1);
         assert_eq!(r.window(0).lo, 256);
         assert_eq!(r.window(0).slots, [s2]);
+        assert_eq!(r.resident_points(), 144);
         assert_eq!(r.clear(0, 0), 1);
+        assert_eq!(r.resident_points(), 0);
         assert_eq!(r.free_slots(), 4);
         assert_eq!(
             r.window(0),

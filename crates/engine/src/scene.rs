@@ -114,6 +114,10 @@ pub struct VirtualScene {
     accumulation: bool,
     /// Per pointlet: the generation of the colours in its GPU pages.
     gpu_epoch: Vec<u32>,
+    /// Pointlets whose `gpu_epoch` is older than `epoch`.
+    stale: usize,
+    /// Points requested and drawn in all, by the latest feedback.
+    feedback_totals: (u64, u64),
     /// Runs the residency step's parallel passes.
     pool: Arc<rayon::ThreadPool>,
 }
@@ -219,6 +223,8 @@ impl VirtualScene {
             epoch: 0,
             accumulation: true,
             gpu_epoch: vec![0; n],
+            stale: 0,
+            feedback_totals: (0, 0),
         })
     }
 
@@ -263,6 +269,7 @@ impl VirtualScene {
         self.cache.source().set_scale(scale);
         self.cache.clear();
         self.epoch += 1;
+        self.stale = self.counts.len();
         Ok(())
     }
 
@@ -390,6 +397,13 @@ impl VirtualScene {
             self.requested = fb.requested;
             self.drawn = fb.drawn;
             self.feedback_frame = fb.frame;
+            let pool = Arc::clone(&self.pool);
+            self.feedback_totals = pool.install(|| {
+                (
+                    self.requested.par_iter().map(|v| *v as u64).sum(),
+                    self.drawn.par_iter().map(|v| *v as u64).sum(),
+                )
+            });
         }
         let mut report = FrameReport {
             frame: self.paged.frames() + 1,
@@ -408,18 +422,18 @@ impl VirtualScene {
             &PagedView { bucket, accumulate },
             target,
         )?;
-        pool.install(|| {
-            report.requested_points = self.requested.par_iter().map(|v| *v as u64).sum();
-            report.drawn_points = self.drawn.par_iter().map(|v| *v as u64).sum();
-            report.pages_resident = self.residency.resident_pages(self.slots);
-            report.gpu_points = self
-                .residency
+        (report.requested_points, report.drawn_points) = self.feedback_totals;
+        report.pages_resident = self.residency.resident_pages(self.slots);
+        report.gpu_points = self.residency.resident_points();
+        debug_assert_eq!(
+            report.gpu_points,
+            self.residency
                 .windows()
-                .par_iter()
+                .iter()
                 .map(|w| w.points() as u64)
-                .sum();
-            report.converged = self.converged();
-        });
+                .sum::<u64>()
+        );
+        report.converged = pool.install(|| self.converged());
         report.cache = self.cache.stats();
         if let Some(e) = self.cache.take_error() {
             return Err(EngineError::Read(e.to_string()));
@@ -456,44 +470,27 @@ impl VirtualScene {
         };
         let windows = self.residency.windows();
         let (gpu_epoch, epoch) = (&self.gpu_epoch, self.epoch);
-        let keep: Vec<u32> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let w = &windows[i];
-                if gpu_epoch[i] != epoch {
-                    // Its GPU colours are stale: RAM must bring the window back to recolour it.
-                    w.lo
-                } else if w.lo == 0 || accumulate {
-                    w.hi
-                } else {
-                    0
-                }
-            })
-            .collect();
-        // RAM brings whole pages: uploads fill pages to their end (see the planning below).
-        let counts = &self.counts;
-        let wanted: Vec<u32> = self
-            .requested
-            .par_iter()
-            .zip(counts.par_iter())
-            .map(|(r, c)| (r.div_ceil(ps) * ps).min(*c))
-            .collect();
-        self.cache.request_window(&wanted, &keep);
+        let (requested, counts) = (&self.requested, &self.counts);
+        self.cache.request_with(n, |i| {
+            let w = &windows[i];
+            let keep = if gpu_epoch[i] != epoch {
+                // Its GPU colours are stale: RAM must bring the window back to recolour it.
+                w.lo
+            } else if w.lo == 0 || accumulate {
+                w.hi
+            } else {
+                0
+            };
+            // RAM brings whole pages: uploads fill pages to their end (see the planning below).
+            ((requested[i].div_ceil(ps) * ps).min(counts[i]), keep)
+        });
         lap(0, report);
         // GPU: drawing a moving view needs prefixes, so windows that lost their front while
         // the camera was still start over.
-        self.residency.touch_requested(&self.requested, frame);
+        let fronts_gone = self.residency.touch_requested(&self.requested, frame);
         if !accumulate {
-            let restart: Vec<usize> = self
-                .residency
-                .windows()
-                .par_iter()
-                .enumerate()
-                .filter(|(_, w)| w.lo > 0)
-                .map(|(i, _)| i)
-                .collect();
-            for i in restart {
-                report.pages_evicted += self.residency.clear(i, 0) as u64;
+            for i in fronts_gone {
+                report.pages_evicted += self.residency.clear(i as usize, 0) as u64;
             }
         }
         // While still, pages already drawn may go when room is needed — judged only by feedback
@@ -601,6 +598,9 @@ impl VirtualScene {
     /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their
     /// points with the new colours; only the colour stream is uploaded (4 bytes a point).
     fn recolor_stale(&mut self, budget: &mut u64, report: &mut FrameReport) {
+        if self.stale == 0 {
+            return;
+        }
         let ps = self.config.page_size;
         for i in 0..self.counts.len() {
             if self.gpu_epoch[i] == self.epoch {
@@ -609,6 +609,7 @@ impl VirtualScene {
             let w = self.residency.window(i).clone();
             if w.slots.is_empty() {
                 self.gpu_epoch[i] = self.epoch;
+                self.stale -= 1;
                 continue;
             }
             let held = self.cache.held(i);
@@ -626,6 +627,7 @@ impl VirtualScene {
             *budget -= w.points() as u64;
             report.bytes_uploaded += w.points() as u64 * 4;
             self.gpu_epoch[i] = self.epoch;
+            self.stale -= 1;
         }
     }
 

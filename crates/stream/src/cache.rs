@@ -167,19 +167,29 @@ impl<S: PointletSource> RamCache<S> {
     /// longer needed (missing entries mean 0): under pressure they are dropped first, so a
     /// window slides over a pointlet larger than the budget.
     pub fn request_window(&mut self, wanted: &[u32], keep_from: &[u32]) {
+        let n = wanted.len();
+        self.request_with(n, |i| (wanted[i], keep_from.get(i).copied().unwrap_or(0)));
+    }
+
+    /// Like [`request_window`](Self::request_window), with pointlet i's (wanted, keep_from)
+    /// given by `want(i)` for i < `n`: callers need not build the two arrays every frame.
+    pub fn request_with(&mut self, n: usize, want: impl Fn(usize) -> (u32, u32) + Sync) {
         self.frame += 1;
         let sh = &self.shared;
         let Some(tx) = &self.tx else { return };
         let budget = sh.config.ram_budget as f64;
         let pressure = sh.ram_used.load(Relaxed) as f64 > budget * sh.config.pressure;
         let frame = self.frame;
-        let n = wanted.len().min(sh.slots.len());
-        // One pass over all pointlets, in parallel: each touches only its own atomics.
-        let marks: Vec<u8> = (0..n)
+        let n = n.min(sh.slots.len());
+        // One pass over all pointlets, in parallel: each touches only its own atomics and
+        // yields its task, if any.
+        let tasks: Vec<(u8, u32)> = (0..n)
             .into_par_iter()
-            .map(|i| {
-                let w = wanted[i].min(sh.source.pointlet_len(i));
-                let keep = keep_from.get(i).copied().unwrap_or(0).min(w);
+            .with_min_len(1024)
+            .filter_map(|i| {
+                let (w, keep) = want(i);
+                let w = w.min(sh.source.pointlet_len(i));
+                let keep = keep.min(w);
                 sh.wanted[i].store(w, Relaxed);
                 sh.keep_from[i].store(keep, Relaxed);
                 if w > 0 {
@@ -189,23 +199,22 @@ impl<S: PointletSource> RamCache<S> {
                 let from = sh.held_from[i].load(Acquire);
                 let gap = keep < from && w > keep;
                 if (w > have || gap) && !sh.load_queued[i].load(Acquire) {
-                    LOAD
+                    Some((LOAD, i as u32))
                 } else if (w < have || keep > from)
                     && pressure
                     && !sh.unload_queued[i].load(Acquire)
                 {
-                    UNLOAD
+                    Some((UNLOAD, i as u32))
                 } else {
-                    0
+                    None
                 }
             })
             .collect();
-        let loads: Vec<u32> = (0..n as u32)
-            .filter(|i| marks[*i as usize] == LOAD)
-            .collect();
-        let mut surplus: Vec<(u64, u32)> = (0..n as u32)
-            .filter(|i| marks[*i as usize] == UNLOAD)
-            .map(|i| (sh.last_wanted[i as usize].load(Relaxed), i))
+        let loads = tasks.iter().filter(|t| t.0 == LOAD).map(|t| t.1);
+        let mut surplus: Vec<(u64, u32)> = tasks
+            .iter()
+            .filter(|t| t.0 == UNLOAD)
+            .map(|&(_, i)| (sh.last_wanted[i as usize].load(Relaxed), i))
             .collect();
         // Under pressure, unloads go first (stalest first): they make room for the loads.
         if pressure {
