@@ -118,6 +118,8 @@ pub struct VirtualScene {
     stale: usize,
     /// Points requested and drawn in all, by the latest feedback.
     feedback_totals: (u64, u64),
+    /// Some GPU window got new colours this frame.
+    recoloured: bool,
     /// Runs the residency step's parallel passes.
     pool: Arc<rayon::ThreadPool>,
 }
@@ -225,6 +227,7 @@ impl VirtualScene {
             gpu_epoch: vec![0; n],
             stale: 0,
             feedback_totals: (0, 0),
+            recoloured: false,
         })
     }
 
@@ -377,7 +380,11 @@ impl VirtualScene {
         let view_key = (*camera, *settings, (target.width, target.height));
         let still = self.last_camera.as_ref() == Some(&view_key);
         self.last_camera = Some(view_key);
-        let accumulate = still && self.accumulation && settings.variant.accumulates();
+        // Pages recoloured last frame may already be in the kept framebuffer with their old
+        // colours: accumulation starts over, as after a camera move.
+        let recoloured = std::mem::take(&mut self.recoloured);
+        let accumulate =
+            still && !recoloured && self.accumulation && settings.variant.accumulates();
         if accumulate {
             self.still_frames += 1;
             if self.accumulating_since.is_none() {
@@ -447,13 +454,16 @@ impl VirtualScene {
         let Some(since) = self.accumulating_since else {
             return false;
         };
-        self.feedback_frame >= since
+        // Recoloured pages restart accumulation next frame: this image may hold old colours.
+        !self.recoloured
+            && self.feedback_frame >= since
             && self
                 .requested
                 .par_iter()
                 .zip(self.drawn.par_iter())
                 .zip(self.counts.par_iter())
-                .all(|((r, d), c)| (*r == 0 || r == c) && d >= r)
+                .zip(self.gpu_epoch.par_iter())
+                .all(|(((r, d), c), e)| *r == 0 || (r == c && d >= r && *e == self.epoch))
     }
 
     fn update_residency(&mut self, accumulate: bool, report: &mut FrameReport) {
@@ -628,6 +638,7 @@ impl VirtualScene {
             report.bytes_uploaded += w.points() as u64 * 4;
             self.gpu_epoch[i] = self.epoch;
             self.stale -= 1;
+            self.recoloured = true;
         }
     }
 

@@ -1,7 +1,7 @@
 //! The virtualized renderer under budgets far below the store: it streams, evicts, keeps to the
 //! budgets, and once the camera stops converges to exactly the full-detail image.
 
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::Camera;
 use pointlet_engine::{target_bytes, SceneConfig, VirtualScene};
 use pointlet_gpu::{
@@ -252,6 +252,64 @@ fn picking_reads_the_point_and_recolouring_replaces_only_colours() {
     let (classes, _) = converge(&ctx, &mut scene, &mut renderer, &mut target, &cam, 400);
     assert_ne!(rgb, classes);
     assert!(scene.cache_stats().points_evicted > before.points_evicted);
+    // An edited scale (elevation over another range and gamma) recolours too; setting the
+    // same scale again changes nothing.
+    scene.set_color(ColorMode::Elevation).expect("elevation");
+    let fitted = scene.color_scale();
+    scene
+        .frame(&ctx, &mut renderer, &moved, &settings(), &mut target)
+        .expect("frame");
+    let (elevation, _) = converge(&ctx, &mut scene, &mut renderer, &mut target, &cam, 400);
+    let mid = 0.5 * (fitted.range[0] + fitted.range[1]);
+    let edited = ColorScale {
+        range: [mid, fitted.range[1]],
+        gamma: 2.0,
+        ..fitted
+    };
+    scene.set_color_scale(edited).expect("edited scale");
+    let reloads = scene.cache_stats().points_evicted;
+    scene.set_color_scale(edited).expect("same scale");
+    assert_eq!(
+        scene.cache_stats().points_evicted,
+        reloads,
+        "no reload for the same scale"
+    );
+    scene
+        .frame(&ctx, &mut renderer, &moved, &settings(), &mut target)
+        .expect("frame");
+    let (edited_image, _) = converge(&ctx, &mut scene, &mut renderer, &mut target, &cam, 400);
+    assert_ne!(elevation, edited_image);
+    assert_eq!(scene.color_scale(), edited);
+    // Recoloured while resident, the images equal those of scenes coloured so from the start
+    // (no page keeps an old colour in the converged image).
+    for (scale, image) in [(None, &classes), (Some(edited), &edited_image)] {
+        let mut fresh = VirtualScene::open(
+            &ctx,
+            &path,
+            SceneConfig {
+                color: ColorMode::Classification,
+                ..Default::default()
+            },
+            (W, H),
+        )
+        .expect("open");
+        if let Some(scale) = scale {
+            fresh.set_color_scale(scale).expect("scale");
+        }
+        let (expected, _) = converge(&ctx, &mut fresh, &mut renderer, &mut target, &cam, 400);
+        let differing = expected
+            .chunks(4)
+            .zip(image.chunks(4))
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            differing,
+            0,
+            "{} pixels of the image recoloured to {:?} differ from a fresh scene's",
+            differing,
+            scale.map(|s| s.mode)
+        );
+    }
     assert!(
         scene.set_color(ColorMode::GpsTime).is_ok(),
         "the scene has GPS time"
