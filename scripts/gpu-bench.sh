@@ -6,7 +6,7 @@
 #   store   generate the 1 G-point lean store under /tmp (issue 4)
 #   orbit   bench along the orbit path, warm page cache, then cold (issue 4)
 #   quality PSNR of LoD images against full detail, 200 M points (issue 4)
-#   threads residency-thread A/B on 200 M points
+#   threads residency threads × loaders A/B on the 1 G-point store (run store first)
 #   diag    a quick 200 M-point orbit for profiling the residency step
 set -euo pipefail
 phase=$1
@@ -38,24 +38,28 @@ case "$phase" in
     # Warm: the store's pages are cached, and the writeback of its generation is done.
     sync
     "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
-      --bucket 25M --loaders 8 --json "$out/orbit-warm.json" --plot "$out/orbit-warm.png" 2>&1 | tee "$out/orbit-warm.txt"
+      --bucket 25M --json "$out/orbit-warm.json" --plot "$out/orbit-warm.png" 2>&1 | tee "$out/orbit-warm.txt"
     sync
     echo 3 >/proc/sys/vm/drop_caches
     "$bin" bench "$store" --frames 1200 --orbit-seconds 20 --vram-budget "$vram" --ram-budget 4GiB \
-      --bucket 25M --loaders 8 --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
+      --bucket 25M --json "$out/orbit-cold.json" --plot "$out/orbit-cold.png" 2>&1 | tee "$out/orbit-cold.txt"
     ;;
   threads)
-    # Residency threads A/B on 200 M points (VRAM 1/20): one per core (default), half the
-    # cores, the default again (run-to-run spread).
-    small=/tmp/bench-200m.pointlet
-    "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1 | tee "$out/store.txt"
-    size=$(stat -c %s "$small")
-    common=(--frames 1200 --orbit-seconds 20 --vram-budget $((size / 20)) --ram-budget 4GiB --bucket 25M --loaders 8)
+    # Residency threads (t) and loaders (l), alternated, four rounds; the involuntary context
+    # switches of each run show oversubscription.
+    size=$(stat -c %s "$store")
+    common=(--frames 1200 --orbit-seconds 20 --vram-budget $((size / 20)) --ram-budget 4GiB --bucket 25M)
     sync
-    for run in all half all2; do
-      t=0
-      [ "$run" = half ] && t=$(($(nproc) / 2))
-      "$bin" bench "$small" "${common[@]}" --residency-threads "$t" --json "$out/$run.json" 2>&1 | tee "$out/$run.txt"
+    for round in 1 2 3 4; do
+      for cfg in 16:8 8:8 8:4 4:4; do
+        t=${cfg%:*} l=${cfg#*:}
+        name="t${t}l${l}-$round"
+        /usr/bin/time -v "$bin" bench "$store" "${common[@]}" --residency-threads "$t" --loaders "$l" \
+          --json "$out/$name.json" >"$out/$name.txt" 2>&1
+        echo "$name $(grep -o '1% low [0-9.]*, 0.1% low [0-9.]*' "$out/$name.txt")" \
+          "$(grep -o 'avg [0-9.]* fps' "$out/$name.txt")" \
+          "involuntary switches $(grep Involuntary "$out/$name.txt" | awk '{print $NF}')" | tee -a "$out/threads.txt"
+      done
     done
     ;;
   diag)
@@ -63,7 +67,7 @@ case "$phase" in
     "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1
     size=$(stat -c %s "$small")
     "$bin" bench "$small" --frames 600 --orbit-seconds 10 --vram-budget $((size / 20)) --ram-budget 4GiB \
-      --bucket 25M --loaders 8 --json "$out/diag.json" 2>&1 | tee "$out/diag.txt"
+      --bucket 25M --json "$out/diag.json" 2>&1 | tee "$out/diag.txt"
     ;;
   quality)
     # Fig. 16–17 of the paper used 100 M and 187 M points: a 200 M-point store, VRAM 1/6.

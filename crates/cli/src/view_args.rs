@@ -128,7 +128,7 @@ pub struct VirtualArgs {
     /// Loader threads reading from disk.
     #[arg(long, default_value_t = 4)]
     pub loaders: usize,
-    /// Threads of the per-frame residency work (0: one per core).
+    /// Threads of the per-frame residency work (0: half the cores).
     #[arg(long, default_value_t = 0)]
     pub residency_threads: usize,
 }

@@ -31,9 +31,9 @@ pub struct SceneConfig {
     /// Points per GPU page.
     pub page_size: u32,
     pub loaders: usize,
-    /// Threads of the residency step's parallel passes (0: one per core). A pass waits for its
-    /// slowest thread, so fewer threads than cores may leave loaders and the driver room
-    /// without preempting a worker (not yet measured on a GPU machine).
+    /// Threads of the residency step's parallel passes (0: half the cores). A pass waits for its
+    /// slowest thread: with as many threads as cores, loaders preempt workers and the 1 % low
+    /// frame rate halves (docs/BENCHMARKS.md, "Residency threads and loaders").
     pub threads: usize,
     /// Points moved from RAM to the GPU per frame at most (keeps frames steady).
     pub upload_per_frame: u64,
@@ -195,7 +195,7 @@ impl VirtualScene {
         )
         .map_err(|e| EngineError::Config(format!("starting loader threads: {e}")))?;
         let threads = match config.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get() / 2),
             t => t,
         };
         let pool = rayon::ThreadPoolBuilder::new()
