@@ -26,6 +26,11 @@ pub struct Args {
     /// Frames along the path (evenly spaced in time).
     #[arg(long, default_value_t = 1000)]
     pub frames: u32,
+    /// Follow the path in wall-clock time instead, as a user flying it sees it: each frame
+    /// shows the camera of the moment it starts, until the path ends (`--frames` only sets the
+    /// orbit's keyframe density). Faster frames then do not outrun the loading.
+    #[arg(long)]
+    pub realtime: bool,
     /// Seconds one orbit takes (with `--path orbit`).
     #[arg(long, default_value_t = 30.0)]
     pub orbit_seconds: f64,
@@ -60,7 +65,12 @@ pub struct Args {
 #[derive(Serialize)]
 struct FrameRow {
     frame: u32,
+    /// Seconds since the first measured frame started.
+    time_s: f64,
     frame_ms: f64,
+    /// Render thread: handing feedback to the residency thread and queueing its batch.
+    handoff_ms: f64,
+    /// Residency thread: the step whose batch this frame queued (0: none finished).
     residency_ms: f64,
     /// See `pointlet_engine::RESIDENCY_PARTS`.
     residency_parts_ms: [f64; 5],
@@ -92,6 +102,10 @@ struct Summary<'a> {
     ram_budget: u64,
     vram_allocated: u64,
     ram_peak: u64,
+    /// The camera followed the path in wall-clock time.
+    realtime: bool,
+    /// Of the points the LoD requested over the path, the share drawn.
+    request_drawn: f64,
     stats: &'a FrameStats,
     stages: &'a [pointlet_report::StageSummary],
     frames: &'a [FrameRow],
@@ -143,11 +157,24 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut rows: Vec<FrameRow> = Vec::with_capacity(cameras.len());
     let mut read_before = 0u64;
-    let mut last_start = Instant::now();
+    let began = Instant::now();
+    let mut last_start = began;
     let mut first_frame = renderer.frames() + 1;
-    for (k, camera) in cameras.iter().enumerate() {
+    for k in 0.. {
         renderer.limit_frames_in_flight(&ctx, args.in_flight)?;
         let start = Instant::now();
+        let t = (start - began).as_secs_f64();
+        let camera = if args.realtime {
+            if t >= path.duration() {
+                break;
+            }
+            path.camera_at(t, &bounds)
+        } else {
+            match cameras.get(k as usize) {
+                Some(c) => *c,
+                None => break,
+            }
+        };
         if k == 0 {
             first_frame = renderer.frames() + 1;
         } else if let Some(prev) = rows.last_mut() {
@@ -155,8 +182,10 @@ pub fn run(args: Args) -> Result<()> {
             prev.frame_ms = (start - last_start).as_secs_f64() * 1e3;
         }
         last_start = start;
-        let report = scene.frame(&ctx, &mut renderer, camera, &settings, &mut target)?;
-        rows.push(row(k as u32, &report, &mut read_before));
+        let report = scene.frame(&ctx, &mut renderer, &camera, &settings, &mut target)?;
+        let mut r = row(k, &report, &mut read_before);
+        r.time_s = t;
+        rows.push(r);
         attach_timings(
             &mut rows,
             renderer.poll_timings(&ctx, &mut target),
@@ -175,7 +204,8 @@ pub fn run(args: Args) -> Result<()> {
     let times: Vec<f64> = rows.iter().map(|r| r.frame_ms.max(1e-6)).collect();
     let stats = FrameStats::from_frame_times_ms(&times)?;
     let mut stages = StageBreakdown::new([
-        "residency (CPU)",
+        "handoff (render)",
+        "residency (thread)",
         "upload (GPU)",
         "lod (GPU)",
         "raster (GPU)",
@@ -183,6 +213,7 @@ pub fn run(args: Args) -> Result<()> {
     ])?;
     for r in &rows {
         stages.push_frame(&[
+            r.handoff_ms,
             r.residency_ms,
             r.upload_ms,
             r.lod_ms,
@@ -206,7 +237,7 @@ pub fn run(args: Args) -> Result<()> {
     println!("stage breakdown (ms per frame):");
     for s in &stage_table {
         println!(
-            "  {:<16} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
+            "  {:<18} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
             s.name, s.avg_ms, s.median_ms, s.max_ms
         );
     }
@@ -219,6 +250,21 @@ pub fn run(args: Args) -> Result<()> {
         let max = v.iter().cloned().fold(0.0, f64::max);
         println!("    residency: {name:<14} avg {avg:>8.3}  max {max:>8.3}");
     }
+    // How sharp the frames were: of the points the LoD asked for, the share drawn.
+    let requested: u64 = rows.iter().map(|r| r.points_requested).sum();
+    let drawn: u64 = rows
+        .iter()
+        .map(|r| r.points_drawn.min(r.points_requested))
+        .sum();
+    let request_drawn = drawn as f64 / requested.max(1) as f64;
+    let seconds = rows.iter().map(|r| r.frame_ms).sum::<f64>() / 1e3;
+    println!(
+        "streaming: {:.1} % of the requested points drawn over the path ({:.2} s, {} frames); {} points uploaded",
+        request_drawn * 100.0,
+        seconds,
+        rows.len(),
+        rows.iter().map(|r| r.points_uploaded).sum::<u64>()
+    );
     println!(
         "memory: GPU {} allocated of a {} budget; RAM cache peak {} of {}; {} read from disk",
         pointlet_core::size::format_bytes(
@@ -242,6 +288,8 @@ pub fn run(args: Args) -> Result<()> {
             bucket: args.virtual_args.bucket,
             vram_budget: config.vram_budget,
             ram_budget: config.ram_budget,
+            realtime: args.realtime,
+            request_drawn,
             vram_allocated: scene.gpu_bytes()
                 + pointlet_engine::target_bytes(args.width, args.height),
             ram_peak: cache.ram_peak,
@@ -258,20 +306,23 @@ pub fn run(args: Args) -> Result<()> {
 fn row(frame: u32, r: &FrameReport, read_before: &mut u64) -> FrameRow {
     let read = r.cache.bytes_read.saturating_sub(*read_before);
     *read_before = r.cache.bytes_read;
+    let step = r.step.clone().unwrap_or_default();
     FrameRow {
         frame,
+        time_s: 0.0,
         frame_ms: 0.0,
-        residency_ms: r.residency_ms,
-        residency_parts_ms: r.residency_parts_ms,
+        handoff_ms: r.handoff_ms,
+        residency_ms: step.ms,
+        residency_parts_ms: step.parts_ms,
         upload_ms: 0.0,
         lod_ms: 0.0,
         raster_ms: 0.0,
         screen_ms: 0.0,
         points_drawn: r.drawn_points,
         points_requested: r.requested_points,
-        points_uploaded: r.points_uploaded,
-        upload_runs: r.upload_runs,
-        bytes_uploaded: r.bytes_uploaded,
+        points_uploaded: step.points_uploaded,
+        upload_runs: step.upload_runs,
+        bytes_uploaded: step.bytes_uploaded,
         gpu_pages: r.pages_resident,
         gpu_points: r.gpu_points,
         ram_bytes: r.cache.ram_used,
@@ -310,7 +361,8 @@ fn write_plot(path: &Path, rows: &[FrameRow]) -> Result<()> {
         series("raster (GPU)", 1, &|r| r.raster_ms),
         series("LoD (GPU)", 2, &|r| r.lod_ms),
         series("upload (GPU)", 5, &|r| r.upload_ms),
-        series("residency (CPU)", 3, &|r| r.residency_ms),
+        series("residency (thread)", 3, &|r| r.residency_ms),
+        series("handoff (render)", 6, &|r| r.handoff_ms),
         series("screen (GPU)", 4, &|r| r.screen_ms),
     ];
     let title = "frame time along the path";
@@ -339,11 +391,14 @@ fn settle(
     let mut quiet = 0;
     for _ in 0..20_000 {
         let r = scene.frame(ctx, renderer, camera, settings, target)?;
-        quiet = if r.points_uploaded == 0 && r.cache.queued == 0 && r.requested_points > 0 {
-            quiet + 1
-        } else {
-            0
-        };
+        // Quiet: residency steps in a row that moved nothing and found the loaders idle.
+        if let Some(step) = &r.step {
+            quiet = if step.points_uploaded == 0 && r.cache.queued == 0 && r.requested_points > 0 {
+                quiet + 1
+            } else {
+                0
+            };
+        }
         if done(&r, quiet) {
             return Ok(r);
         }

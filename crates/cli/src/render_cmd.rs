@@ -141,16 +141,18 @@ fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
     let mut settled = 0;
     for _ in 0..args.max_frames {
         let report = scene.frame(&ctx, &mut renderer, &camera, &settings, &mut target)?;
-        // Without convergence: done once nothing moved to the GPU for a few frames and the
-        // requests arrived.
-        settled = if report.points_uploaded == 0
-            && report.requested_points > 0
-            && report.cache.queued == 0
-        {
-            settled + 1
-        } else {
-            0
-        };
+        // Without convergence: done once a few residency steps in a row moved nothing to the
+        // GPU and the requests arrived.
+        if let Some(step) = &report.step {
+            settled = if step.points_uploaded == 0
+                && report.requested_points > 0
+                && report.cache.queued == 0
+            {
+                settled + 1
+            } else {
+                0
+            };
+        }
         let done = report.converged || (args.no_converge && settled >= 8);
         last = Some(report);
         if done {

@@ -1,15 +1,17 @@
 //! The virtualized renderer (virtualized paper §III-C): a store on disk, the RAM cache of
 //! pointlet windows fed by loader threads, and the GPU page pool, wired so that every frame the
-//! GPU LoD's requests flow back to the CPU, the CPU moves what arrived into free pages, and the
-//! GPU draws what is resident. Only changes cost work; nothing waits for the disk.
+//! GPU LoD's requests flow back to a residency thread, which moves what arrived into free pages
+//! and hands the uploads to the render thread, and the GPU draws what is resident. Only changes
+//! cost work; the render thread waits neither for the disk nor for the residency step.
 
 mod residency;
 mod scene;
 mod source;
+mod step;
 
 pub use residency::{ResidencySet, Window};
 pub use scene::{
-    target_bytes, FrameReport, PickedPoint, SceneConfig, VirtualScene, RESIDENCY_PARTS,
+    target_bytes, FrameReport, PickedPoint, SceneConfig, StepReport, VirtualScene, RESIDENCY_PARTS,
 };
 pub use source::{fit_scale, has_attribute, StoreSource};
 

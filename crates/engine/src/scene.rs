@@ -1,23 +1,22 @@
 //! A store rendered through the virtual memory system (virtualized paper §III-C): the GPU LoD
 //! requests points per pointlet, loader threads bring them from disk into the RAM cache, and
-//! each frame moves a bounded number of them into GPU page slots, evicting pages nobody needs.
-//! The render thread never waits for the disk: it draws what is resident.
+//! a residency step on its own thread moves a bounded number of them into GPU page slots,
+//! evicting pages nobody needs. The render thread never waits for the disk or for that step: it
+//! draws what is resident and queues each finished step's uploads with its next frame.
 
-use crate::residency::ResidencySet;
 use crate::source::StoreSource;
+use crate::step::{ResidencyState, StepResult, StepThread, Tick};
 use crate::EngineError;
 use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::{Aabb, Camera, Quantization};
 use pointlet_gpu::{
-    GpuContext, PageJob, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
+    GpuContext, PageBatch, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
     RenderTarget, Renderer,
 };
 use pointlet_store::Store;
 use pointlet_stream::{CacheConfig, CacheStats, RamCache};
-use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Instant;
 
 #[derive(Clone, Debug)]
 pub struct SceneConfig {
@@ -56,28 +55,16 @@ impl Default for SceneConfig {
     }
 }
 
-/// Names of [`FrameReport::residency_parts_ms`], in order.
-pub const RESIDENCY_PARTS: [&str; 5] = [
-    "RAM requests",
-    "window upkeep",
-    "planning",
-    "copy to staging",
-    "publish",
-];
+pub use crate::step::{StepReport, RESIDENCY_PARTS};
 
 /// What one frame did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameReport {
     pub frame: u64,
-    /// CPU time of the residency step (feedback, requests, uploads, evictions).
-    pub residency_ms: f64,
-    /// Its parts, named by [`RESIDENCY_PARTS`].
-    pub residency_parts_ms: [f64; RESIDENCY_PARTS.len()],
-    pub points_uploaded: u64,
-    /// Page runs written (a run fills one page, or part of one).
-    pub upload_runs: u64,
-    pub bytes_uploaded: u64,
-    pub pages_evicted: u64,
+    /// The residency step whose batch this frame queued; None when none finished in time.
+    pub step: Option<StepReport>,
+    /// Render-thread time spent handing feedback to the residency thread and taking its batch.
+    pub handoff_ms: f64,
     pub pages_resident: u32,
     pub gpu_points: u64,
     /// From the latest LoD feedback (a frame or two old).
@@ -92,14 +79,18 @@ pub struct FrameReport {
 
 pub struct VirtualScene {
     store: Arc<Store>,
-    cache: RamCache<StoreSource>,
     paged: PagedCloud,
-    residency: ResidencySet,
+    steps: StepThread,
+    /// A step runs; its batch is not yet queued.
+    in_flight: bool,
+    /// An empty batch for the next step.
+    spare: Option<PageBatch>,
     config: SceneConfig,
     quantization: Quantization,
-    counts: Vec<u32>,
-    requested: Vec<u32>,
-    drawn: Vec<u32>,
+    counts: Arc<Vec<u32>>,
+    scale: ColorScale,
+    requested: Arc<Vec<u32>>,
+    drawn: Arc<Vec<u32>>,
     feedback_frame: u64,
     last_camera: Option<(Camera, RenderSettings, (u32, u32))>,
     still_frames: u32,
@@ -107,21 +98,18 @@ pub struct VirtualScene {
     accumulating_since: Option<u64>,
     total_points: u64,
     slots: u32,
-    order: Vec<(f64, u32)>,
-    /// Colouring generation: bumped when the user colours by another attribute.
-    epoch: u32,
     /// Keep refining a still view to full detail (on by default).
     accumulation: bool,
-    /// Per pointlet: the generation of the colours in its GPU pages.
-    gpu_epoch: Vec<u32>,
-    /// Pointlets whose `gpu_epoch` is older than `epoch`.
-    stale: usize,
     /// Points requested and drawn in all, by the latest feedback.
     feedback_totals: (u64, u64),
-    /// Some GPU window got new colours this frame.
+    /// Some GPU window got new colours in the batch queued this frame.
     recoloured: bool,
-    /// Runs the residency step's parallel passes.
-    pool: Arc<rayon::ThreadPool>,
+    /// Feedback frame a finished step found complete (see `StepReport::complete_at`).
+    complete_at: Option<u64>,
+    /// The latest step's view of the pool and the cache.
+    pages_resident: u32,
+    gpu_points: u64,
+    cache: CacheStats,
 }
 
 /// A point under the cursor, read back from the store: exact coordinates.
@@ -204,16 +192,29 @@ impl VirtualScene {
             .build()
             .map_err(|e| EngineError::Config(format!("starting residency threads: {e}")))?;
         let n = descs.len();
-        Ok(Self {
-            pool: Arc::new(pool),
-            store,
+        let counts = Arc::new(descs.iter().map(|d| d.count).collect::<Vec<u32>>());
+        let scale = cache.source().scale();
+        let state = ResidencyState::new(
             cache,
-            residency: ResidencySet::new(n, slots, config.page_size),
+            Arc::clone(&counts),
+            slots,
+            config.page_size,
+            config.upload_per_frame,
+            config.encoding,
+            Arc::new(pool),
+        );
+        let steps = StepThread::start(state)?;
+        Ok(Self {
+            store,
+            spare: Some(paged.new_batch()),
             paged,
+            steps,
+            in_flight: false,
             quantization: header.quantization,
-            counts: descs.iter().map(|d| d.count).collect(),
-            requested: vec![0; n],
-            drawn: vec![0; n],
+            counts,
+            scale,
+            requested: Arc::new(vec![0; n]),
+            drawn: Arc::new(vec![0; n]),
             feedback_frame: 0,
             last_camera: None,
             still_frames: 0,
@@ -221,18 +222,18 @@ impl VirtualScene {
             total_points: header.points,
             slots,
             config,
-            order: Vec::new(),
-            epoch: 0,
             accumulation: true,
-            gpu_epoch: vec![0; n],
-            stale: 0,
             feedback_totals: (0, 0),
             recoloured: false,
+            complete_at: None,
+            pages_resident: 0,
+            gpu_points: 0,
+            cache: CacheStats::default(),
         })
     }
 
     pub fn color_mode(&self) -> ColorMode {
-        self.cache.source().scale().mode
+        self.scale.mode
     }
 
     /// With accumulation off, a still camera keeps drawing the LoD image of the bucket (for
@@ -251,7 +252,7 @@ impl VirtualScene {
 
     /// The colouring the loaders apply.
     pub fn color_scale(&self) -> ColorScale {
-        self.cache.source().scale()
+        self.scale
     }
 
     /// Colours by another attribute, with ranges fitted to the data.
@@ -266,13 +267,47 @@ impl VirtualScene {
     /// the new colours arrive.
     pub fn set_color_scale(&mut self, scale: ColorScale) -> Result<(), EngineError> {
         self.check_color_mode(scale.mode)?;
-        if scale == self.color_scale() {
+        if scale == self.scale {
             return Ok(());
         }
-        self.cache.source().set_scale(scale);
-        self.cache.clear();
-        self.epoch += 1;
-        self.stale = self.counts.len();
+        self.settle()?;
+        let mut st = self.steps.state()?;
+        st.cache.source().set_scale(scale);
+        st.cache.clear();
+        st.epoch += 1;
+        st.stale = self.counts.len();
+        drop(st);
+        self.scale = scale;
+        self.complete_at = None;
+        Ok(())
+    }
+
+    /// Waits for the step in flight and queues its batch: the residency state then matches
+    /// what the GPU will hold at the next frame.
+    fn settle(&mut self) -> Result<(), EngineError> {
+        if self.in_flight {
+            let result = self.steps.take()?;
+            self.apply(result, &mut FrameReport::default())?;
+        }
+        Ok(())
+    }
+
+    /// Queues a finished step's batch for this frame and takes over its report.
+    fn apply(&mut self, result: StepResult, report: &mut FrameReport) -> Result<(), EngineError> {
+        self.in_flight = false;
+        self.spare = Some(self.paged.submit(result.batch));
+        let r = result.outcome;
+        if let Some(e) = r.error {
+            return Err(EngineError::Read(e));
+        }
+        self.recoloured |= r.recoloured;
+        if r.complete_at.is_some() {
+            self.complete_at = r.complete_at;
+        }
+        self.pages_resident = r.pages_resident;
+        self.gpu_points = r.gpu_points;
+        self.cache = r.cache;
+        report.step = Some(r.report);
         Ok(())
     }
 
@@ -299,6 +334,8 @@ impl VirtualScene {
         pixel: [u32; 2],
         radius: u32,
     ) -> Result<Option<PickedPoint>, EngineError> {
+        // The pick pass draws the pool as the residency state describes it.
+        self.settle()?;
         let view = PagedView {
             bucket: self.moving_bucket(),
             accumulate: false,
@@ -316,7 +353,7 @@ impl VirtualScene {
         else {
             return Ok(None);
         };
-        let Some((pointlet, index)) = self.residency.point_of(hit.id) else {
+        let Some((pointlet, index)) = self.steps.state()?.residency.point_of(hit.id) else {
             return Ok(None);
         };
         let raw = self.store.read_positions(pointlet, index..index + 1)?;
@@ -358,16 +395,20 @@ impl VirtualScene {
         self.slots
     }
 
+    /// The RAM cache's counters now (waits for a running step).
     pub fn cache_stats(&self) -> CacheStats {
-        self.cache.stats()
+        self.steps
+            .state()
+            .map_or_else(|_| self.cache, |st| st.cache.stats())
     }
 
     pub fn config(&self) -> &SceneConfig {
         &self.config
     }
 
-    /// Draws one frame; never waits for disk. A camera that did not move since the last frame
-    /// keeps the framebuffer and adds points (growing the bucket) until the full-detail image.
+    /// Draws one frame; never waits for disk or for the residency step. A camera that did not
+    /// move since the last frame keeps the framebuffer and adds points (growing the bucket)
+    /// until the full-detail image.
     pub fn frame(
         &mut self,
         ctx: &GpuContext,
@@ -376,12 +417,11 @@ impl VirtualScene {
         settings: &RenderSettings,
         target: &mut RenderTarget,
     ) -> Result<FrameReport, EngineError> {
-        let started = Instant::now();
         let view_key = (*camera, *settings, (target.width, target.height));
         let still = self.last_camera.as_ref() == Some(&view_key);
         self.last_camera = Some(view_key);
-        // Pages recoloured last frame may already be in the kept framebuffer with their old
-        // colours: accumulation starts over, as after a camera move.
+        // Pages recoloured by the batch queued last frame may already be in the kept
+        // framebuffer with their old colours: accumulation starts over, as after a camera move.
         let recoloured = std::mem::take(&mut self.recoloured);
         let accumulate =
             still && !recoloured && self.accumulation && settings.variant.accumulates();
@@ -400,17 +440,15 @@ impl VirtualScene {
         } else {
             self.moving_bucket()
         };
+        let handoff = std::time::Instant::now();
         if let Some(fb) = self.paged.poll_feedback(ctx) {
-            self.requested = fb.requested;
-            self.drawn = fb.drawn;
+            self.feedback_totals = (
+                fb.requested.iter().map(|v| *v as u64).sum(),
+                fb.drawn.iter().map(|v| *v as u64).sum(),
+            );
+            self.requested = Arc::new(fb.requested);
+            self.drawn = Arc::new(fb.drawn);
             self.feedback_frame = fb.frame;
-            let pool = Arc::clone(&self.pool);
-            self.feedback_totals = pool.install(|| {
-                (
-                    self.requested.par_iter().map(|v| *v as u64).sum(),
-                    self.drawn.par_iter().map(|v| *v as u64).sum(),
-                )
-            });
         }
         let mut report = FrameReport {
             frame: self.paged.frames() + 1,
@@ -418,9 +456,36 @@ impl VirtualScene {
             accumulating: accumulate,
             ..Default::default()
         };
-        let pool = Arc::clone(&self.pool);
-        pool.install(|| self.update_residency(accumulate, &mut report));
-        report.residency_ms = started.elapsed().as_secs_f64() * 1e3;
+        // Queue the step that finished, then start the next one on the newest feedback.
+        if self.in_flight {
+            if let Some(result) = self.steps.try_take()? {
+                self.apply(result, &mut report)?;
+            }
+        }
+        if !self.in_flight {
+            // While still, pages already drawn may go when room is needed — judged only by
+            // feedback of accumulating frames, whose drawn counts never shrink.
+            let drawn_valid = accumulate
+                && self
+                    .accumulating_since
+                    .is_some_and(|since| self.feedback_frame >= since);
+            let batch = match self.spare.take() {
+                Some(b) => b,
+                None => self.paged.new_batch(),
+            };
+            self.steps.send(Tick {
+                frame: report.frame,
+                requested: Arc::clone(&self.requested),
+                drawn: Arc::clone(&self.drawn),
+                feedback_frame: self.feedback_frame,
+                accumulate,
+                drawn_valid,
+                check_from: self.accumulating_since,
+                batch,
+            })?;
+            self.in_flight = true;
+        }
+        report.handoff_ms = handoff.elapsed().as_secs_f64() * 1e3;
         renderer.render_paged(
             ctx,
             &mut self.paged,
@@ -430,280 +495,20 @@ impl VirtualScene {
             target,
         )?;
         (report.requested_points, report.drawn_points) = self.feedback_totals;
-        report.pages_resident = self.residency.resident_pages(self.slots);
-        report.gpu_points = self.residency.resident_points();
-        debug_assert_eq!(
-            report.gpu_points,
-            self.residency
-                .windows()
-                .iter()
-                .map(|w| w.points() as u64)
-                .sum::<u64>()
-        );
-        report.converged = pool.install(|| self.converged());
-        report.cache = self.cache.stats();
-        if let Some(e) = self.cache.take_error() {
-            return Err(EngineError::Read(e.to_string()));
-        }
+        report.pages_resident = self.pages_resident;
+        report.gpu_points = self.gpu_points;
+        report.converged = self.converged();
+        report.cache = self.cache;
         Ok(report)
     }
 
-    /// True once feedback from a still frame shows every visible pointlet requested and drawn
-    /// in full.
+    /// True once a step found feedback from this still view showing every visible pointlet
+    /// requested, drawn in full and in the current colours.
     fn converged(&self) -> bool {
         let Some(since) = self.accumulating_since else {
             return false;
         };
         // Recoloured pages restart accumulation next frame: this image may hold old colours.
-        !self.recoloured
-            && self.feedback_frame >= since
-            && self
-                .requested
-                .par_iter()
-                .zip(self.drawn.par_iter())
-                .zip(self.counts.par_iter())
-                .zip(self.gpu_epoch.par_iter())
-                .all(|(((r, d), c), e)| *r == 0 || (r == c && d >= r && *e == self.epoch))
-    }
-
-    fn update_residency(&mut self, accumulate: bool, report: &mut FrameReport) {
-        let n = self.counts.len();
-        let ps = self.config.page_size;
-        let frame = report.frame;
-        // RAM holds what the GPU does not: points below a window's end are on the GPU (or, while
-        // still, drawn), so under pressure RAM drops them first and a RAM budget smaller than
-        // the view still lets every point through. Windows that must restart from 0 keep all.
-        let mut clock = Instant::now();
-        let mut lap = |k: usize, report: &mut FrameReport| {
-            report.residency_parts_ms[k] = clock.elapsed().as_secs_f64() * 1e3;
-            clock = Instant::now();
-        };
-        let windows = self.residency.windows();
-        let (gpu_epoch, epoch) = (&self.gpu_epoch, self.epoch);
-        let (requested, counts) = (&self.requested, &self.counts);
-        self.cache.request_with(n, |i| {
-            let w = &windows[i];
-            let keep = if gpu_epoch[i] != epoch {
-                // Its GPU colours are stale: RAM must bring the window back to recolour it.
-                w.lo
-            } else if w.lo == 0 || accumulate {
-                w.hi
-            } else {
-                0
-            };
-            // RAM brings whole pages: uploads fill pages to their end (see the planning below).
-            ((requested[i].div_ceil(ps) * ps).min(counts[i]), keep)
-        });
-        lap(0, report);
-        // GPU: drawing a moving view needs prefixes, so windows that lost their front while
-        // the camera was still start over.
-        let fronts_gone = self.residency.touch_requested(&self.requested, frame);
-        if !accumulate {
-            for i in fronts_gone {
-                report.pages_evicted += self.residency.clear(i as usize, 0) as u64;
-            }
-        }
-        // While still, pages already drawn may go when room is needed — judged only by feedback
-        // of accumulating frames, whose drawn counts never shrink.
-        let drawn_valid = accumulate
-            && self
-                .accumulating_since
-                .is_some_and(|since| self.feedback_frame >= since);
-        let mut budget = self.config.upload_per_frame;
-        self.recolor_stale(&mut budget, report);
-        lap(1, report);
-        // Most starved first: the smallest share of its request resident.
-        let (windows, requested, cache) = (self.residency.windows(), &self.requested, &self.cache);
-        let (gpu_epoch, epoch) = (&self.gpu_epoch, self.epoch);
-        self.order = (0..n)
-            .into_par_iter()
-            .filter_map(|i| {
-                let (w, want) = (&windows[i], requested[i]);
-                let held = cache.held(i);
-                let fresh = gpu_epoch[i] == epoch;
-                (fresh && want > w.hi && held.start <= w.hi && held.end > w.hi)
-                    .then_some((w.hi as f64 / want as f64, i as u32))
-            })
-            .collect();
-        self.order.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let mut victims: Option<Vec<u32>> = None;
-        let order = std::mem::take(&mut self.order);
-        // Plan: slots and ranges, serially (allocation and eviction decisions).
-        let mut jobs: Vec<PageJob> = Vec::new();
-        'pointlets: for (_, i) in &order {
-            let i = *i as usize;
-            // Fill up to the end of the page the request ends in: the page is taken anyway, and
-            // the next frames' small growth then needs no upload (no run of a few points each).
-            let fill_to = (self.requested[i].div_ceil(ps) * ps).min(self.counts[i]);
-            let target_hi = fill_to.min(self.cache.held(i).end);
-            while self.residency.window(i).hi < target_hi && budget > 0 {
-                let hi = self.residency.window(i).hi;
-                let slot = match self.residency.slot_for_next(i) {
-                    Some(s) => s,
-                    None => {
-                        let want = (budget / ps as u64 + 1) as usize;
-                        let v = victims.get_or_insert_with(|| self.victims(drawn_valid, want));
-                        if !self.evict_one(v, i, drawn_valid, report) {
-                            break 'pointlets;
-                        }
-                        continue;
-                    }
-                };
-                let page_end = (hi / ps + 1) * ps;
-                let end = target_hi
-                    .min(page_end)
-                    .min(hi + budget.min(u32::MAX as u64) as u32);
-                jobs.push(PageJob {
-                    pointlet: i as u32,
-                    slot,
-                    first_point: hi,
-                    count: end - hi,
-                });
-                self.residency.extend(i, end);
-                budget = budget.saturating_sub((end - hi) as u64);
-            }
-            if budget == 0 {
-                break;
-            }
-        }
-        self.order = order;
-        lap(2, report);
-        // Copy into the upload staging in parallel; loaders already encoded the points. The
-        // cache holds these ranges until the next request (this thread's), so nothing planned
-        // goes missing.
-        let cache = &self.cache;
-        let written = self.paged.write_jobs(&jobs, |k, sink| {
-            let j = &jobs[k];
-            let range = j.first_point..j.first_point + j.count;
-            cache.with_points(j.pointlet as usize, range, |first, words, colors| {
-                if first == j.first_point {
-                    sink.put_words(words, colors);
-                }
-            });
-        });
-        for (j, got) in jobs.iter().zip(&written) {
-            if *got < j.count {
-                // Should not happen (see above); keep the window honest if it does.
-                let end = j.first_point + got;
-                report.pages_evicted += self.residency.trim_tail(j.pointlet as usize, end) as u64;
-            }
-            report.points_uploaded += *got as u64;
-        }
-        report.upload_runs = jobs.len() as u64;
-        lap(3, report);
-        report.bytes_uploaded +=
-            report.points_uploaded * self.config.encoding.resident_bytes_per_point();
-        // Only what changed: new pages' table entries and the ranges of changed pointlets (pages
-        // that stay keep their entries when a window's front moves).
-        for [i, page, slot] in self.residency.take_new_pages() {
-            self.paged.set_page(i, page, slot);
-        }
-        for i in self.residency.take_dirty() {
-            let w = self.residency.window(i as usize);
-            self.paged.set_state(i, w.lo, w.hi);
-        }
-        lap(4, report);
-    }
-
-    /// Replaces the colours of GPU windows coloured in an older generation, once RAM holds their
-    /// points with the new colours; only the colour stream is uploaded (4 bytes a point).
-    fn recolor_stale(&mut self, budget: &mut u64, report: &mut FrameReport) {
-        if self.stale == 0 {
-            return;
-        }
-        let ps = self.config.page_size;
-        for i in 0..self.counts.len() {
-            if self.gpu_epoch[i] == self.epoch {
-                continue;
-            }
-            let w = self.residency.window(i).clone();
-            if w.slots.is_empty() {
-                self.gpu_epoch[i] = self.epoch;
-                self.stale -= 1;
-                continue;
-            }
-            let held = self.cache.held(i);
-            if held.start > w.lo || held.end < w.hi || *budget < w.points() as u64 {
-                continue;
-            }
-            for (k, slot) in w.slots.iter().enumerate() {
-                let start = w.lo + k as u32 * ps;
-                let end = (start + ps).min(w.hi);
-                let paged = &mut self.paged;
-                self.cache.with_points(i, start..end, |first, _, colors| {
-                    paged.write_colors(*slot, first, colors);
-                });
-            }
-            *budget -= w.points() as u64;
-            report.bytes_uploaded += w.points() as u64 * 4;
-            self.gpu_epoch[i] = self.epoch;
-            self.stale -= 1;
-            self.recoloured = true;
-        }
-    }
-
-    /// Pointlets whose pages may go, best victims last (popped first): not requested, least
-    /// recently used; then those holding more than requested; then (with `drawn_valid`, the
-    /// camera still) those with pages already drawn into the kept framebuffer.
-    fn victims(&self, drawn_valid: bool, want: usize) -> Vec<u32> {
-        let ps = self.config.page_size;
-        let requested = &self.requested;
-        let drawn = &self.drawn;
-        let mut v: Vec<(u8, u64, u32)> = self
-            .residency
-            .windows()
-            .par_iter()
-            .enumerate()
-            .filter(|(i, w)| {
-                !w.slots.is_empty()
-                    && (w.hi > requested[*i] || (drawn_valid && w.lo + ps <= drawn[*i]))
-            })
-            .map(|(i, w)| ((requested[i] > 0) as u8, w.last_used, i as u32))
-            .collect();
-        // Only the best `want` pointlets can be needed this frame (each gives a page at least):
-        // select them instead of sorting all.
-        if v.len() > want {
-            v.select_nth_unstable(want);
-            v.truncate(want);
-        }
-        // Popped from the back: unrequested before partly requested, older before newer.
-        v.sort_unstable_by(|a, b| b.cmp(a));
-        v.into_iter().map(|(_, _, i)| i).collect()
-    }
-
-    /// Frees one page from the victim list (never from `needy` itself). False when none is left.
-    fn evict_one(
-        &mut self,
-        victims: &mut Vec<u32>,
-        needy: usize,
-        drawn_valid: bool,
-        report: &mut FrameReport,
-    ) -> bool {
-        let ps = self.config.page_size;
-        while let Some(&v) = victims.last() {
-            let v = v as usize;
-            let w = self.residency.window(v);
-            let keep = self.requested[v];
-            if v == needy || w.slots.is_empty() {
-                victims.pop();
-                continue;
-            }
-            let freed = if w.hi > keep {
-                // The last page, or the part beyond the request if that is a whole page.
-                let last_page_start = w.lo + (w.slots.len() as u32 - 1) * ps;
-                self.residency.trim_tail(v, last_page_start.max(keep))
-            } else if drawn_valid && w.lo + ps <= self.drawn[v] {
-                // The first page, already in the kept framebuffer.
-                self.residency.trim_head(v, w.lo + ps)
-            } else {
-                0
-            };
-            if freed > 0 {
-                report.pages_evicted += freed as u64;
-                return true;
-            }
-            victims.pop();
-        }
-        false
+        !self.recoloured && self.complete_at.is_some_and(|f| f >= since)
     }
 }

@@ -143,7 +143,7 @@ fn budgets_far_below_the_store_still_converge_to_the_full_detail_image() {
             .frame(&ctx, &mut renderer, &cam, &settings(), &mut target)
             .expect("frame");
         assert!(!r.converged, "a moving camera never converges");
-        moving_evictions += r.pages_evicted;
+        moving_evictions += r.step.map_or(0, |s| s.pages_evicted);
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
     let (got, frames) = converge(

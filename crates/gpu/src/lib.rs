@@ -30,7 +30,7 @@ pub use storage::{
     PointEncoding, COMPACT_STEPS,
 };
 pub use target::RenderTarget;
-pub use upload::{PageJob, PageSink, PageWrite};
+pub use upload::{PageBatch, PageJob, PageSink, PageWrite};
 
 use thiserror::Error;
 

@@ -8,7 +8,7 @@ use crate::context::GpuContext;
 use crate::storage::{
     DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
-use crate::upload::{PageJob, PageSink, PageWrite, UploadQueue};
+use crate::upload::{BatchLayout, PageBatch, PageJob, PageSink, PageWrite, UploadQueue};
 use crate::{shaders, GpuError};
 use bytemuck::{Pod, Zeroable};
 use pointlet_core::{Aabb, Camera};
@@ -135,7 +135,9 @@ pub struct PagedCloud {
     frame: u64,
     table_bytes: u64,
     uploads: UploadQueue,
-    boxes: Vec<Aabb>,
+    /// Packed uploads waiting for the next frame.
+    pending: PageBatch,
+    layout: Arc<BatchLayout>,
 }
 
 impl PagedCloud {
@@ -353,8 +355,17 @@ impl PagedCloud {
             ],
         );
         let list_group = group(&group1_layout, &[(0, &entry_counts), (1, &indirect)]);
-        let uploads = UploadQueue::new(ctx, &storage)?;
-        let boxes = pointlets.iter().map(|p| p.aabb).collect();
+        let uploads = UploadQueue::new(ctx)?;
+        let layout = Arc::new(BatchLayout {
+            words: (encoding.position_bytes() / 4) as usize,
+            compact: encoding == PointEncoding::Compact8,
+            page_size,
+            slots_per_chunk: storage.slots_per_chunk,
+            chunks: storage.chunks.len(),
+            max_pages,
+            encoding,
+            boxes: pointlets.iter().map(|p| p.aabb).collect(),
+        });
         let table_bytes = infos.size()
             + entries.size()
             + pointlet_buf.size()
@@ -389,7 +400,8 @@ impl PagedCloud {
             frame: 0,
             table_bytes,
             uploads,
-            boxes,
+            pending: PageBatch::new(Arc::clone(&layout)),
+            layout,
         })
     }
 
@@ -405,44 +417,43 @@ impl PagedCloud {
     /// Queues point runs for their page slots (each run inside one page); they reach the GPU
     /// with the next frame, in one batch.
     pub fn write_pages(&mut self, pages: &[PageWrite<'_>]) {
-        self.uploads.write_pages(pages, &self.boxes, self.encoding);
+        self.pending.write_pages(pages);
     }
 
     /// Queues `jobs`, each encoded by `fill(k, sink)` (in parallel); returns the points each
-    /// delivered. The cheap path for streaming: encode straight from a cache's integers.
+    /// delivered.
     pub fn write_jobs(
         &mut self,
         jobs: &[PageJob],
         fill: impl Fn(usize, &mut PageSink<'_>) + Sync,
     ) -> Vec<u32> {
-        self.uploads
-            .write_jobs(jobs, &self.boxes, self.encoding, fill)
-    }
-
-    /// Publishes (with the next frame) that page `page` of `pointlet` lives in `slot`.
-    pub fn set_page(&mut self, pointlet: u32, page: u32, slot: u32) {
-        self.uploads
-            .set_page(pointlet * self.max_pages + page, slot);
-    }
-
-    /// Publishes (with the next frame) that points `lo..hi` of `pointlet` are resident (their
-    /// pages published with [`set_page`](Self::set_page)).
-    pub fn set_state(&mut self, pointlet: u32, lo: u32, hi: u32) {
-        self.uploads.set_state(pointlet, lo, hi);
-    }
-
-    /// Queues new colours for points `first_point..` in `slot` (recolouring: positions stay).
-    pub fn write_colors(&mut self, slot: u32, first_point: u32, colors: &[u32]) {
-        self.uploads.write_colors(slot, first_point, colors);
+        self.pending.write_jobs(jobs, fill)
     }
 
     /// Publishes (with the next frame) that points `lo..hi` of `pointlet` are resident, page j
     /// (from lo / page size) in `slots[j - lo / page size]`.
     pub fn set_residency(&mut self, pointlet: u32, lo: u32, hi: u32, slots: &[u32]) {
-        self.uploads.set_state(pointlet, lo, hi);
-        let first = pointlet * self.max_pages + lo / self.page_size;
+        self.pending.set_state(pointlet, lo, hi);
+        let first = lo / self.page_size;
         for (k, slot) in slots.iter().enumerate() {
-            self.uploads.set_page(first + k as u32, *slot);
+            self.pending.set_page(pointlet, first + k as u32, *slot);
+        }
+    }
+
+    /// An empty batch to pack uploads into on another thread.
+    pub fn new_batch(&self) -> PageBatch {
+        PageBatch::new(Arc::clone(&self.layout))
+    }
+
+    /// Queues a batch packed elsewhere for the next frame (after anything queued before);
+    /// returns an empty batch for reuse.
+    pub fn submit(&mut self, mut batch: PageBatch) -> PageBatch {
+        if self.pending.is_empty() {
+            std::mem::swap(&mut self.pending, &mut batch);
+            batch
+        } else {
+            self.pending.append(batch);
+            self.new_batch()
         }
     }
 
@@ -469,6 +480,7 @@ impl PagedCloud {
         self.uploads.flush(
             ctx,
             enc,
+            &mut self.pending,
             &self.storage,
             &self.page_table,
             &self.state,

@@ -10,6 +10,7 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use pointlet_core::Aabb;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Points `first_point..` of a pointlet (absolute coordinates) going into one page slot; the
 /// run must stay inside the page.
@@ -95,20 +96,32 @@ struct ChunkRuns {
 
 const COLORS_ONLY: u32 = 1;
 
-/// GPU side of the queue: staging buffers (grown on demand) and the passes.
-pub(crate) struct UploadQueue {
-    words: usize,
-    compact: bool,
-    page_size: u32,
-    slots_per_chunk: u32,
-    // CPU packing for the next flush.
+/// A frame's new pages, recoloured runs and table changes, packed on the CPU (on any thread;
+/// encoding in parallel) and handed to [`PagedCloud::submit`](crate::PagedCloud::submit).
+pub struct PageBatch {
+    layout: Arc<BatchLayout>,
     positions: Vec<u32>,
     fine: Vec<u32>,
     colors: Vec<u32>,
     runs: Vec<Vec<Run>>,
     page_updates: Vec<[u32; 2]>,
     state_updates: Vec<[u32; 4]>,
-    // GPU.
+}
+
+/// What packing needs to know of the pool: fixed for a cloud's life.
+pub(crate) struct BatchLayout {
+    pub words: usize,
+    pub compact: bool,
+    pub page_size: u32,
+    pub slots_per_chunk: u32,
+    pub chunks: usize,
+    pub max_pages: u32,
+    pub encoding: PointEncoding,
+    pub boxes: Vec<Aabb>,
+}
+
+/// GPU side of the uploads: staging buffers (grown on demand) and the scatter passes.
+pub(crate) struct UploadQueue {
     capacity_points: u64,
     capacity_runs: u64,
     capacity_updates: u64,
@@ -130,60 +143,62 @@ struct Staging {
     tables_group: wgpu::BindGroup,
 }
 
-impl UploadQueue {
-    pub fn new(ctx: &GpuContext, storage: &PointStorage) -> Result<Self, GpuError> {
-        let device = &ctx.device;
-        let (scatter, tables) = ctx.checked("building the upload passes", || {
-            let pipeline = |label: &str, source: &str, entry: &str| {
-                let module = shaders::module(device, label, source);
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(label),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-            };
-            (
-                pipeline("upload", shaders::UPLOAD, "scatter"),
-                pipeline("tables", shaders::TABLES, "apply"),
-            )
-        })?;
-        Ok(Self {
-            words: (storage.encoding.position_bytes() / 4) as usize,
-            compact: storage.encoding == PointEncoding::Compact8,
-            page_size: storage.page_size,
-            slots_per_chunk: storage.slots_per_chunk,
+impl PageBatch {
+    pub(crate) fn new(layout: Arc<BatchLayout>) -> Self {
+        let chunks = layout.chunks;
+        Self {
+            layout,
             positions: Vec::new(),
             fine: Vec::new(),
             colors: Vec::new(),
-            runs: vec![Vec::new(); storage.chunks.len()],
+            runs: vec![Vec::new(); chunks],
             page_updates: Vec::new(),
             state_updates: Vec::new(),
-            capacity_points: 0,
-            capacity_runs: 0,
-            capacity_updates: 0,
-            staging: None,
-            scatter,
-            tables,
-        })
+        }
+    }
+
+    /// Nothing packed.
+    pub fn is_empty(&self) -> bool {
+        self.colors.is_empty()
+            && self.runs.iter().all(Vec::is_empty)
+            && self.page_updates.is_empty()
+            && self.state_updates.is_empty()
+    }
+
+    /// Appends `later` (packed after this batch): its runs read behind this batch's points.
+    pub(crate) fn append(&mut self, later: PageBatch) {
+        let base = self.colors.len() as u32;
+        self.positions.extend_from_slice(&later.positions);
+        self.fine.extend_from_slice(&later.fine);
+        self.colors.extend_from_slice(&later.colors);
+        for (mine, theirs) in self.runs.iter_mut().zip(later.runs) {
+            mine.extend(theirs.into_iter().map(|r| Run {
+                src: r.src + base,
+                ..r
+            }));
+        }
+        self.page_updates.extend_from_slice(&later.page_updates);
+        self.state_updates.extend_from_slice(&later.state_updates);
+    }
+
+    fn clear(&mut self) {
+        self.positions.clear();
+        self.fine.clear();
+        self.colors.clear();
+        self.runs.iter_mut().for_each(Vec::clear);
+        self.page_updates.clear();
+        self.state_updates.clear();
     }
 
     fn dst(&self, slot: u32, first_point: u32) -> (usize, u32) {
-        let chunk = (slot / self.slots_per_chunk) as usize;
-        let in_chunk =
-            (slot % self.slots_per_chunk) * self.page_size + first_point % self.page_size;
+        let l = &self.layout;
+        let chunk = (slot / l.slots_per_chunk) as usize;
+        let in_chunk = (slot % l.slots_per_chunk) * l.page_size + first_point % l.page_size;
         (chunk, in_chunk)
     }
 
     /// Packs pages for the next flush, encoding them in parallel.
-    pub fn write_pages(
-        &mut self,
-        pages: &[PageWrite<'_>],
-        boxes: &[Aabb],
-        encoding: PointEncoding,
-    ) {
+    pub fn write_pages(&mut self, pages: &[PageWrite<'_>]) {
         let jobs: Vec<PageJob> = pages
             .iter()
             .map(|p| PageJob {
@@ -193,7 +208,7 @@ impl UploadQueue {
                 count: p.positions.len().min(p.colors.len()) as u32,
             })
             .collect();
-        self.write_jobs(&jobs, boxes, encoding, |k, sink| {
+        self.write_jobs(&jobs, |k, sink| {
             sink.put(pages[k].positions, pages[k].colors)
         });
     }
@@ -203,21 +218,20 @@ impl UploadQueue {
     pub fn write_jobs(
         &mut self,
         jobs: &[PageJob],
-        boxes: &[Aabb],
-        encoding: PointEncoding,
         fill: impl Fn(usize, &mut PageSink<'_>) + Sync,
     ) -> Vec<u32> {
         let base = self.colors.len();
         let total: usize = jobs.iter().map(|j| j.count as usize).sum();
-        let words = self.words;
+        let layout = Arc::clone(&self.layout);
+        let (words, boxes, encoding) = (layout.words, &layout.boxes, layout.encoding);
         self.positions
             .resize(self.positions.len() + total * words, 0);
-        if self.compact {
+        let compact = layout.compact;
+        if compact {
             self.fine.resize(self.fine.len() + total, 0);
         }
         self.colors.resize(base + total, 0);
         // Disjoint output slices, one per job.
-        let compact = self.compact;
         let mut pos_rest = &mut self.positions[base * words..];
         let mut fine_rest: &mut [u32] = if compact {
             &mut self.fine[base..]
@@ -279,13 +293,14 @@ impl UploadQueue {
         written
     }
 
-    /// Packs new colours for points `first_point..` of `slot` (positions stay).
+    /// Queues new colours (recolouring: positions stay) for points `first_point..` of `slot` (positions stay).
     pub fn write_colors(&mut self, slot: u32, first_point: u32, colors: &[u32]) {
         let src = self.colors.len() as u32;
         self.colors.extend_from_slice(colors);
         // Keep the streams aligned point for point: the run reads colours only.
-        self.positions.resize(self.colors.len() * self.words, 0);
-        if self.compact {
+        self.positions
+            .resize(self.colors.len() * self.layout.words, 0);
+        if self.layout.compact {
             self.fine.resize(self.colors.len(), 0);
         }
         let (chunk, dst) = self.dst(slot, first_point);
@@ -299,24 +314,62 @@ impl UploadQueue {
         }
     }
 
-    pub fn set_page(&mut self, index: u32, slot: u32) {
+    /// Publishes (with the frame that flushes this batch) that page `page` of `pointlet` lives
+    /// in `slot`.
+    pub fn set_page(&mut self, pointlet: u32, page: u32, slot: u32) {
+        let index = pointlet * self.layout.max_pages + page;
         self.page_updates.push([index, slot]);
     }
 
+    /// Publishes that points `lo..hi` of `pointlet` are resident (their pages published with
+    /// [`set_page`](Self::set_page)).
     pub fn set_state(&mut self, pointlet: u32, lo: u32, hi: u32) {
         self.state_updates.push([pointlet, lo, hi, 0]);
+    }
+}
+
+impl UploadQueue {
+    pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let (scatter, tables) = ctx.checked("building the upload passes", || {
+            let pipeline = |label: &str, source: &str, entry: &str| {
+                let module = shaders::module(device, label, source);
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+            (
+                pipeline("upload", shaders::UPLOAD, "scatter"),
+                pipeline("tables", shaders::TABLES, "apply"),
+            )
+        })?;
+        Ok(Self {
+            capacity_points: 0,
+            capacity_runs: 0,
+            capacity_updates: 0,
+            staging: None,
+            scatter,
+            tables,
+        })
     }
 
     fn ensure_capacity(
         &mut self,
         ctx: &GpuContext,
+        batch: &PageBatch,
         storage: &PointStorage,
         page_table: &wgpu::Buffer,
         state: &wgpu::Buffer,
     ) -> Result<(), GpuError> {
-        let points = self.colors.len() as u64;
-        let runs: u64 = self.runs.iter().map(|r| r.len() as u64).sum();
-        let updates = self.page_updates.len().max(self.state_updates.len()) as u64;
+        let points = batch.colors.len() as u64;
+        let runs: u64 = batch.runs.iter().map(|r| r.len() as u64).sum();
+        let updates = batch.page_updates.len().max(batch.state_updates.len()) as u64;
+        let (words, compact) = (batch.layout.words, batch.layout.compact);
         if self.staging.is_some()
             && points <= self.capacity_points
             && runs <= self.capacity_runs
@@ -339,8 +392,8 @@ impl UploadQueue {
         let s = wgpu::BufferUsages::STORAGE;
         let cap = self.capacity_points;
         let staging = ctx.checked("allocating upload staging", || {
-            let positions = buffer("upload positions", cap * self.words as u64 * 4, s);
-            let fine = buffer("upload fine", if self.compact { cap * 4 } else { 16 }, s);
+            let positions = buffer("upload positions", cap * words as u64 * 4, s);
+            let fine = buffer("upload fine", if compact { cap * 4 } else { 16 }, s);
             let colors = buffer("upload colours", cap * 4, s);
             let runs = buffer("upload runs", self.capacity_runs * 16, s);
             let page_updates = buffer("page updates", self.capacity_updates * 8, s);
@@ -399,19 +452,21 @@ impl UploadQueue {
         Ok(())
     }
 
-    /// Uploads what was packed and records the scatter passes into `enc` (before anything that
-    /// reads the pool or the tables this frame).
+    /// Uploads `batch` and records the scatter passes into `enc` (before anything that reads
+    /// the pool or the tables this frame); leaves `batch` empty.
+    #[allow(clippy::too_many_arguments)]
     pub fn flush(
         &mut self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
+        batch: &mut PageBatch,
         storage: &PointStorage,
         page_table: &wgpu::Buffer,
         state: &wgpu::Buffer,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<(), GpuError> {
-        let has_runs = self.runs.iter().any(|r| !r.is_empty());
-        if !has_runs && self.page_updates.is_empty() && self.state_updates.is_empty() {
+        let has_runs = batch.runs.iter().any(|r| !r.is_empty());
+        if !has_runs && batch.page_updates.is_empty() && batch.state_updates.is_empty() {
             // An empty pass still writes the frame's upload timestamps.
             if timestamps.is_some() {
                 enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -421,49 +476,49 @@ impl UploadQueue {
             }
             return Ok(());
         }
-        self.ensure_capacity(ctx, storage, page_table, state)?;
+        self.ensure_capacity(ctx, batch, storage, page_table, state)?;
         let Some(st) = &self.staging else {
             return Ok(());
         };
         let q = &ctx.queue;
         let mut all_runs = Vec::new();
         let mut offsets = Vec::new();
-        for list in &self.runs {
+        for list in &batch.runs {
             offsets.push((all_runs.len() as u32, list.len() as u32));
             all_runs.extend_from_slice(list);
         }
         if has_runs {
-            q.write_buffer(&st.positions, 0, bytemuck::cast_slice(&self.positions));
-            if self.compact {
-                q.write_buffer(&st.fine, 0, bytemuck::cast_slice(&self.fine));
+            q.write_buffer(&st.positions, 0, bytemuck::cast_slice(&batch.positions));
+            if batch.layout.compact {
+                q.write_buffer(&st.fine, 0, bytemuck::cast_slice(&batch.fine));
             }
-            q.write_buffer(&st.colors, 0, bytemuck::cast_slice(&self.colors));
+            q.write_buffer(&st.colors, 0, bytemuck::cast_slice(&batch.colors));
             q.write_buffer(&st.runs, 0, bytemuck::cast_slice(&all_runs));
             for ((offset, count), u) in offsets.iter().zip(&st.chunk_uniforms) {
                 let c = ChunkRuns {
                     offset: *offset,
                     count: *count,
-                    words: self.words as u32,
-                    has_fine: self.compact as u32,
+                    words: batch.layout.words as u32,
+                    has_fine: batch.layout.compact as u32,
                 };
                 q.write_buffer(u, 0, bytemuck::bytes_of(&c));
             }
         }
-        let n_updates = self.page_updates.len().max(self.state_updates.len()) as u32;
+        let n_updates = batch.page_updates.len().max(batch.state_updates.len()) as u32;
         if n_updates > 0 {
             q.write_buffer(
                 &st.page_updates,
                 0,
-                bytemuck::cast_slice(&self.page_updates),
+                bytemuck::cast_slice(&batch.page_updates),
             );
             q.write_buffer(
                 &st.state_updates,
                 0,
-                bytemuck::cast_slice(&self.state_updates),
+                bytemuck::cast_slice(&batch.state_updates),
             );
             let counts = [
-                self.page_updates.len() as u32,
-                self.state_updates.len() as u32,
+                batch.page_updates.len() as u32,
+                batch.state_updates.len() as u32,
                 0,
                 0,
             ];
@@ -491,12 +546,7 @@ impl UploadQueue {
                 pass.dispatch_workgroups(x, y, 1);
             }
         }
-        self.positions.clear();
-        self.fine.clear();
-        self.colors.clear();
-        self.runs.iter_mut().for_each(Vec::clear);
-        self.page_updates.clear();
-        self.state_updates.clear();
+        batch.clear();
         Ok(())
     }
 }
