@@ -122,11 +122,7 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("opening {}", args.store.display()))?;
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = RenderSettings {
-        variant,
-        screen: args.draw.screen(),
-        ..Default::default()
-    };
+    let settings = args.draw.settings(variant);
     let bounds = scene.bounds();
     if args.quality {
         return quality(

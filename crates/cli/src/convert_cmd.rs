@@ -97,16 +97,10 @@ pub fn config(
 
 /// Half of the memory available now: leaves room for the page cache and the rest of the system.
 pub fn default_ram_budget() -> u64 {
-    let avail = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
-        })
-        .map(|kb| kb * 1024);
-    avail.map(|a| a / 2).unwrap_or(2 << 30).max(64 << 20)
+    crate::available_memory()
+        .map(|a| a / 2)
+        .unwrap_or(2 << 30)
+        .max(64 << 20)
 }
 
 /// Streams every reader into a builder; decoding overlaps key computation and sorting.

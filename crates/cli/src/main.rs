@@ -90,6 +90,14 @@ fn main() -> ExitCode {
     }
 }
 
+/// Bytes of memory available now (`MemAvailable` of /proc/meminfo), where the system says.
+pub(crate) fn available_memory() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 /// Clap value parser for byte sizes such as `512MiB`.
 pub(crate) fn parse_bytes_arg(s: &str) -> Result<u64, String> {
     pointlet_core::size::parse_bytes(s).map_err(|e| e.to_string())

@@ -3,9 +3,7 @@
 use crate::view_args::{CameraArgs, DrawArgs, VirtualArgs};
 use anyhow::{Context, Result};
 use pointlet_core::order::apply;
-use pointlet_gpu::{
-    AdapterRequest, GpuCloud, GpuContext, PointSet, RenderSettings, RenderTarget, Renderer,
-};
+use pointlet_gpu::{AdapterRequest, GpuCloud, GpuContext, PointSet, RenderTarget, Renderer};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -91,11 +89,7 @@ pub fn run(args: Args) -> Result<()> {
     drop(set);
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = RenderSettings {
-        variant,
-        screen: args.draw.screen(),
-        ..Default::default()
-    };
+    let settings = args.draw.settings(variant);
     renderer.render(&ctx, &mut cloud, &camera, &settings, &mut target)?;
     let rgba = target.read_rgba(&ctx)?;
     let timing = renderer.timing(&ctx, &mut target)?;
@@ -128,11 +122,7 @@ fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
     let camera = args.camera.camera(&scene.bounds())?;
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = RenderSettings {
-        variant,
-        screen: args.draw.screen(),
-        ..Default::default()
-    };
+    let settings = args.draw.settings(variant);
     if args.no_converge {
         scene.set_accumulation(false);
     }

@@ -4,7 +4,9 @@ use anyhow::{bail, Result};
 use pointlet_core::color::ColorMode;
 use pointlet_core::order::VertexOrder;
 use pointlet_core::{Aabb, Camera};
-use pointlet_gpu::{EdlSettings, OcclusionSettings, PointEncoding, RasterVariant, ScreenSettings};
+use pointlet_gpu::{
+    EdlSettings, OcclusionSettings, PointEncoding, RasterVariant, RenderSettings, ScreenSettings,
+};
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct CameraArgs {
@@ -91,6 +93,15 @@ pub struct DrawArgs {
 }
 
 impl DrawArgs {
+    /// The renderer's settings for `variant` (the resolved `--raster`) and these screen passes.
+    pub fn settings(&self, variant: RasterVariant) -> RenderSettings {
+        RenderSettings {
+            variant,
+            screen: self.screen(),
+            ..Default::default()
+        }
+    }
+
     pub fn screen(&self) -> ScreenSettings {
         ScreenSettings {
             occlusion: self.occlusion.then_some(OcclusionSettings {
@@ -151,15 +162,8 @@ impl VirtualArgs {
 
 /// A quarter of the memory available now (at least 256 MiB).
 pub fn default_ram_budget() -> u64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
-        })
-        .map(|kb| kb * 1024 / 4)
+    crate::available_memory()
+        .map(|a| a / 4)
         .unwrap_or(1 << 30)
         .max(256 << 20)
 }

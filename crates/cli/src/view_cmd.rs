@@ -3,7 +3,6 @@
 
 use crate::view_args::{CameraArgs, DrawArgs};
 use anyhow::Result;
-use pointlet_gpu::RenderSettings;
 use pointlet_viewer::{Automation, Input, StoreBudgets, ViewerConfig};
 use std::path::PathBuf;
 
@@ -66,11 +65,7 @@ pub fn run(args: Args) -> Result<()> {
         input,
         camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
         size: (args.width, args.height),
-        settings: RenderSettings {
-            variant: args.draw.raster,
-            screen: args.draw.screen(),
-            ..Default::default()
-        },
+        settings: args.draw.settings(args.draw.raster),
         color: args.draw.color,
         encoding: args.draw.encoding,
         page_size: args.draw.page_size,

@@ -5,6 +5,7 @@
 
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
+use crate::raster::storage_group;
 use crate::storage::{
     DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
@@ -327,34 +328,22 @@ impl PagedCloud {
                     pipeline("finalize_pass"),
                 )
             })?;
-        let group = |layout: &wgpu::BindGroupLayout, buffers: &[(u32, &wgpu::Buffer)]| {
-            let entries: Vec<wgpu::BindGroupEntry> = buffers
-                .iter()
-                .map(|(b, buf)| wgpu::BindGroupEntry {
-                    binding: *b,
-                    resource: buf.as_entire_binding(),
-                })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("lod"),
-                layout,
-                entries: &entries,
-            })
-        };
-        let lod_group = group(
+        let lod_group = storage_group(
+            device,
+            "lod",
             &group0_layout,
             &[
-                (0, &lod_params),
-                (1, &pointlet_buf),
-                (2, &importance),
-                (3, &feedback),
-                (4, &infos),
-                (5, &state),
-                (6, &page_table),
-                (7, &entries),
+                &lod_params,
+                &pointlet_buf,
+                &importance,
+                &feedback,
+                &infos,
+                &state,
+                &page_table,
+                &entries,
             ],
         );
-        let list_group = group(&group1_layout, &[(0, &entry_counts), (1, &indirect)]);
+        let list_group = storage_group(device, "lod", &group1_layout, &[&entry_counts, &indirect]);
         let uploads = UploadQueue::new(ctx)?;
         let layout = Arc::new(BatchLayout {
             words: (encoding.position_bytes() / 4) as usize,

@@ -172,8 +172,10 @@ pub(crate) fn storage_layout(
     })
 }
 
+/// A bind group of whole buffers, buffer i at binding i.
 pub(crate) fn storage_group(
     device: &wgpu::Device,
+    label: &str,
     layout: &wgpu::BindGroupLayout,
     buffers: &[&wgpu::Buffer],
 ) -> wgpu::BindGroup {
@@ -186,7 +188,7 @@ pub(crate) fn storage_group(
         })
         .collect();
     device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("pixel buffers"),
+        label: Some(label),
         layout,
         entries: &entries,
     })
@@ -313,7 +315,7 @@ impl RasterPipelines {
         for stage in &self.stages {
             let mine: Vec<&wgpu::Buffer> =
                 stage.buffers.iter().map(|i| pixel_buffers[*i]).collect();
-            let group1 = storage_group(device, &stage.group1_layout, &mine);
+            let group1 = storage_group(device, "pixel buffers", &stage.group1_layout, &mine);
             pass.set_pipeline(&stage.pipeline);
             pass.set_bind_group(1, &group1, &[]);
             for (c, chunk) in storage.chunks.iter().enumerate() {

@@ -362,7 +362,7 @@ impl ScreenPasses {
                     },
                 ],
             });
-            let group1 = storage_group(device, &g1, &kind.buffers(target));
+            let group1 = storage_group(device, "pixel buffers", &g1, &kind.buffers(target));
             (p, group0, group1)
         });
         let textures = |layout: &wgpu::BindGroupLayout,

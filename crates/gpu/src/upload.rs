@@ -3,7 +3,7 @@
 //! (upload.wgsl, tables.wgsl), so a frame costs a few buffer writes whatever changed.
 
 use crate::context::GpuContext;
-use crate::raster::grid;
+use crate::raster::{grid, storage_group};
 use crate::shaders;
 use crate::storage::{compact_step, encode_point, PointEncoding, PointStorage};
 use crate::GpuError;
@@ -411,29 +411,24 @@ impl UploadQueue {
                 .zip(&chunk_uniforms)
                 .map(|(c, u)| {
                     let fine_dst = c.fine.as_ref().unwrap_or(&c.colors);
-                    let entries = [
-                        (0, u),
-                        (1, &runs),
-                        (2, &positions),
-                        (3, &fine),
-                        (4, &colors),
-                        (5, &c.positions),
-                        (6, fine_dst),
-                        (7, &c.colors),
+                    let buffers = [
+                        u,
+                        &runs,
+                        &positions,
+                        &fine,
+                        &colors,
+                        &c.positions,
+                        fine_dst,
+                        &c.colors,
                     ];
-                    group(device, &layout, &entries)
+                    storage_group(device, "uploads", &layout, &buffers)
                 })
                 .collect();
-            let tables_group = group(
+            let tables_group = storage_group(
                 device,
+                "tables",
                 &self.tables.get_bind_group_layout(0),
-                &[
-                    (0, &counts),
-                    (1, &page_updates),
-                    (2, &state_updates),
-                    (3, page_table),
-                    (4, state),
-                ],
+                &[&counts, &page_updates, &state_updates, page_table, state],
             );
             Staging {
                 positions,
@@ -549,23 +544,4 @@ impl UploadQueue {
         batch.clear();
         Ok(())
     }
-}
-
-fn group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    entries: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .iter()
-        .map(|(b, buf)| wgpu::BindGroupEntry {
-            binding: *b,
-            resource: buf.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("uploads"),
-        layout,
-        entries: &entries,
-    })
 }
