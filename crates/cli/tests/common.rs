@@ -5,14 +5,14 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 pub fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata")
 }
 
 pub fn data(name: &str) -> PathBuf {
     let p = data_dir().join(name);
     assert!(
         p.exists(),
-        "test data {} is missing (../shared/data beside the clone)",
+        "test data {} is missing (testdata/ in the repository)",
         p.display()
     );
     p

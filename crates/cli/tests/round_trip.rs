@@ -1,5 +1,5 @@
 //! convert → export gives back exactly the points that went in, checked with an independent
-//! reader (the `las` crate), for every real file in ../shared/data and for generated data.
+//! reader (the `las` crate), for every real file in testdata/ and for generated data.
 
 mod common;
 use common::*;
@@ -79,7 +79,7 @@ fn round_trip(input: &std::path::Path, ext: &str) {
 #[test]
 fn every_shared_file_round_trips() {
     let mut n = 0;
-    for e in std::fs::read_dir(data_dir()).expect("../shared/data") {
+    for e in std::fs::read_dir(data_dir()).expect("testdata/") {
         let p = e.expect("entry").path();
         let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
         if ext == "las" || ext == "laz" {
@@ -87,7 +87,7 @@ fn every_shared_file_round_trips() {
             n += 1;
         }
     }
-    assert!(n >= 10, "expected the 10 shared files, found {n}");
+    assert!(n >= 10, "expected the 10 files of testdata/, found {n}");
 }
 
 #[test]

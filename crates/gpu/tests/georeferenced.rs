@@ -105,7 +105,7 @@ fn a_cloud_at_ecef_coordinates_draws_the_image_it_draws_at_the_origin() {
 /// closest point shows).
 fn read_points(path: &Path) -> PointSet {
     let mut reader = pointlet_io::open(path)
-        .unwrap_or_else(|e| panic!("{} (tests read ../shared/data): {e}", path.display()));
+        .unwrap_or_else(|e| panic!("{} (tests read testdata/): {e}", path.display()));
     let mut set = PointSet::default();
     let mut rng = SplitMix64::new(11);
     while let Some(batch) = reader.read_batch(1 << 16).expect("read") {
@@ -120,7 +120,7 @@ fn read_points(path: &Path) -> PointSet {
 #[test]
 fn a_georeferenced_file_draws_the_image_it_draws_moved_to_the_origin() {
     let ctx = context();
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/autzen_trim.laz");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata/autzen_trim.laz");
     let set = read_points(&path);
     let bounds: Aabb = set.bounds();
     let c = bounds.center();

@@ -1,5 +1,5 @@
 //! Our LAS/LAZ/COPC reader against the `las` crate: every point, every attribute, every file
-//! of ../shared/data; and the header metadata (counts, bounds, quantization, kept records).
+//! of testdata/; and the header metadata (counts, bounds, quantization, kept records).
 
 mod common;
 use common::*;

@@ -6,7 +6,7 @@ use pointlet_io::PointReader;
 use std::path::{Path, PathBuf};
 
 pub fn data_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata"))
 }
 
 pub fn data(name: &str) -> PathBuf {
@@ -18,7 +18,7 @@ pub fn data(name: &str) -> PathBuf {
 /// Every LAS/LAZ file of the shared data folder, sorted.
 pub fn shared_files() -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(data_dir())
-        .expect("../shared/data")
+        .expect("testdata/")
         .map(|e| e.expect("entry").path())
         .filter(|p| {
             let e = p.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -28,7 +28,7 @@ pub fn shared_files() -> Vec<PathBuf> {
     v.sort();
     assert!(
         v.len() >= 10,
-        "expected the 10 shared files, found {}",
+        "expected the 10 files of testdata/, found {}",
         v.len()
     );
     v
