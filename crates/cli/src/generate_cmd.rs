@@ -99,6 +99,7 @@ pub fn run(args: Args) -> Result<()> {
                     point_format: meta.las_point_format.unwrap_or(3),
                     layout: meta.layout,
                     vlrs: meta.vlrs.clone(),
+                    fields: meta.las.clone().unwrap_or_default(),
                     compress: ext == "laz",
                 },
             )

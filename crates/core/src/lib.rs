@@ -5,6 +5,7 @@ pub mod aabb;
 pub mod camera;
 pub mod codes;
 pub mod color;
+pub mod crs;
 pub mod lod;
 pub mod order;
 pub mod partition;
@@ -15,4 +16,7 @@ pub mod size;
 
 pub use aabb::Aabb;
 pub use camera::Camera;
-pub use points::{flags, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES};
+pub use points::{
+    flags, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr,
+    WAVEFORM_BYTES,
+};

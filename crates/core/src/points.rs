@@ -149,6 +149,31 @@ impl Vlr {
     pub fn is_extra_bytes(&self) -> bool {
         self.user_id.trim_end_matches('\0') == "LASF_Spec" && self.record_id == 4
     }
+
+    /// The waveform data packets (LASF_Spec 65535), which wave packet descriptors point into.
+    pub fn is_waveform_data(&self) -> bool {
+        self.user_id.trim_end_matches('\0') == "LASF_Spec" && self.record_id == 65535
+    }
+}
+
+/// LAS header fields that describe the points rather than the file: a store keeps them and an
+/// export writes them back.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LasFields {
+    /// The global-encoding bits in [`LasFields::KEPT_ENCODING`]; the others describe the file
+    /// (waveform location, WKT) and a writer derives them from what it writes.
+    pub global_encoding: u16,
+    pub file_source_id: u16,
+    /// The project GUID, verbatim.
+    pub project_id: [u8; 16],
+    pub system_identifier: String,
+}
+
+impl LasFields {
+    /// Bit 0: GPS time is adjusted standard GPS time (else GPS week time); bit 3: return
+    /// numbers were generated synthetically.
+    pub const KEPT_ENCODING: u16 = 0b1001;
+    pub const ADJUSTED_STANDARD_GPS_TIME: u16 = 1;
 }
 
 /// What a reader knows about its input before the points: from the header, so it may lie;
@@ -166,8 +191,12 @@ pub struct SourceMeta {
     pub layout: PointLayout,
     /// LAS point format of the source, when it is LAS/LAZ.
     pub las_point_format: Option<u8>,
-    /// CRS and extra-bytes records worth carrying into stores and exports.
+    /// The records carried into stores and exports: every VLR and EVLR but those a writer
+    /// makes itself (LASzip, COPC).
     pub vlrs: Vec<Vlr>,
+    /// Header fields of a LAS/LAZ source.
+    #[serde(default)]
+    pub las: Option<LasFields>,
 }
 
 /// A batch of points as parallel columns.

@@ -475,6 +475,7 @@ impl Scene {
             layout: self.layout,
             las_point_format: Some(3),
             vlrs: vec![geokey_vlr()],
+            las: None,
         }
     }
 

@@ -556,6 +556,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         },
         las_point_format: None,
         vlrs: Vec::new(),
+        las: None,
     };
     Ok(Box::new(PlyReader {
         body: Body::open(path)?,

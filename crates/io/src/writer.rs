@@ -5,17 +5,18 @@
 //! so no partial output is ever left. LAZ goes through the `laz` crate, which compresses the
 //! whole chunks of each batch in parallel.
 //!
-//! The header's bounds and return counts come from the points written. The VLRs given are
-//! written as they are (as EVLRs when they were EVLRs or exceed a VLR's 65 535 bytes); the
-//! global-encoding WKT bit is set when one of them is a WKT CRS (LASF_Projection 2112).
-//! The GPS-time-type bit stays clear (GPS week time): [`SourceMeta`] does not carry it.
-//!
-//! [`SourceMeta`]: pointlet_core::SourceMeta
+//! The header's bounds and return counts come from the points written; its file source id,
+//! project id, system identifier and the global-encoding bits of [`LasFields`] come from the
+//! config. The VLRs given are written as they are (as EVLRs when they were EVLRs or exceed a
+//! VLR's 65 535 bytes); the global-encoding WKT bit is set when one of them is a WKT CRS
+//! (LASF_Projection 2112). Waveform data packets (LASF_Spec 65535) are written as the first
+//! EVLR, with the header's pointer to them and the "internal" bit, so descriptors keep their
+//! offsets; without that record every wave packet descriptor is written as "no packet".
 
 use crate::las::record::{EncodeStats, Encoder, PointFormat};
 use crate::IoError;
 use laz::{LazVlr, LazVlrBuilder, ParLasZipCompressor};
-use pointlet_core::{PointBatch, PointLayout, Quantization, Vlr};
+use pointlet_core::{LasFields, PointBatch, PointLayout, Quantization, Vlr};
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -35,8 +36,10 @@ pub struct LasWriterConfig {
     pub point_format: u8,
     /// Columns written; must fit the point format. `extra_bytes` sets the extra bytes per record.
     pub layout: PointLayout,
-    /// Records to carry (CRS, extra-bytes description). LASzip and COPC records are dropped.
+    /// Records to carry (CRS, extra-bytes description, ...). LASzip and COPC records are dropped.
     pub vlrs: Vec<Vlr>,
+    /// Header fields to write back (GPS time type, file source id, ...).
+    pub fields: LasFields,
     /// Write LAZ instead of LAS.
     pub compress: bool,
 }
@@ -58,6 +61,9 @@ pub struct LasWriter {
     compress: bool,
     /// A WKT CRS record is among the records written.
     wkt: bool,
+    fields: LasFields,
+    /// The first EVLR is the waveform data packet record.
+    waveform_data: bool,
     encoder: Encoder,
     stats: EncodeStats,
     offset_to_point_data: u32,
@@ -140,8 +146,24 @@ impl LasWriter {
             )
         })?;
         let mut vlrs = Vec::new();
-        let mut evlrs = Vec::new();
-        for v in config.vlrs.iter().filter(|v| is_carried(v)) {
+        let mut evlrs: Vec<Vlr> = config
+            .vlrs
+            .iter()
+            .filter(|v| v.is_waveform_data())
+            .take(1)
+            .cloned()
+            .collect();
+        let waveform_data = !evlrs.is_empty();
+        let encoder = if waveform_data {
+            encoder
+        } else {
+            encoder.without_waveforms()
+        };
+        let carried = config
+            .vlrs
+            .iter()
+            .filter(|v| is_carried(v) && !v.is_waveform_data());
+        for v in carried {
             if v.extended || v.data.len() > MAX_VLR_DATA {
                 evlrs.push(v.clone());
             } else {
@@ -204,6 +226,8 @@ impl LasWriter {
             quantization: config.quantization,
             compress: config.compress,
             wkt,
+            fields: config.fields,
+            waveform_data,
         };
         let mut out = BufWriter::with_capacity(1 << 20, file);
         // The header is rewritten with the final counts and bounds by `finish`.
@@ -306,6 +330,9 @@ impl LasWriter {
             head[235..243].copy_from_slice(&evlr_start.to_le_bytes());
             head[243..247].copy_from_slice(&(self.evlrs.len() as u32).to_le_bytes());
         }
+        if self.waveform_data {
+            head[227..235].copy_from_slice(&evlr_start.to_le_bytes());
+        }
         out.seek(SeekFrom::Start(0)).map_err(io)?;
         out.write_all(&head).map_err(io)?;
         let file = out.into_inner().map_err(|e| io(e.into_error()))?;
@@ -324,10 +351,15 @@ impl LasWriter {
         let (day, year) = creation_date();
         let legacy_ok = !self.format.extended && s.points <= u64::from(u32::MAX);
         let mut put = |at: usize, bytes: &[u8]| h[at..at + bytes.len()].copy_from_slice(bytes);
+        let encoding = self.fields.global_encoding & LasFields::KEPT_ENCODING
+            | u16::from(self.waveform_data) << 1
+            | u16::from(self.wkt) << 4;
         put(0, b"LASF");
-        put(6, &(u16::from(self.wkt) << 4).to_le_bytes());
+        put(4, &self.fields.file_source_id.to_le_bytes());
+        put(6, &encoding.to_le_bytes());
+        put(8, &self.fields.project_id);
         put(24, &[1, 4]);
-        put(26, &padded::<32>("Pointlet"));
+        put(26, &padded::<32>(&self.fields.system_identifier));
         put(
             58,
             &padded::<32>(concat!("pointlet-io ", env!("CARGO_PKG_VERSION"))),

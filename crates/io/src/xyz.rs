@@ -384,6 +384,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         layout,
         las_point_format: None,
         vlrs: Vec::new(),
+        las: None,
     };
     Ok(Box::new(TextReader {
         path: path.to_path_buf(),

@@ -3,6 +3,7 @@
 
 mod common;
 use common::*;
+use pointlet_core::LasFields;
 
 #[test]
 fn every_shared_file_matches_the_las_crate_point_for_point() {
@@ -65,23 +66,34 @@ fn header_metadata_matches_the_las_crate() {
             "{name}: {}",
             m.format
         );
-        // Kept records: exactly the CRS and extra-bytes ones, verbatim, VLRs then EVLRs.
+        // Kept records: every one but LASzip's and COPC's, verbatim, VLRs then EVLRs (the las
+        // crate keeps the bytes of a user id after its NUL; the waveform data is checked below).
         let want: Vec<(String, u16, Vec<u8>, bool)> = h
             .vlrs()
             .iter()
             .map(|v| (v, false))
             .chain(h.evlrs().iter().map(|v| (v, true)))
-            .filter(|(v, _)| {
-                v.user_id == "LASF_Projection" || (v.user_id == "LASF_Spec" && v.record_id == 4)
+            .map(|(v, e)| {
+                let user = v.user_id.split('\0').next().unwrap_or_default().to_string();
+                (user, v.record_id, v.data.clone(), e)
             })
-            .map(|(v, e)| (v.user_id.clone(), v.record_id, v.data.clone(), e))
+            .filter(|(u, id, _, _)| u != "laszip encoded" && u != "copc" && *id != 65535)
             .collect();
         let got: Vec<(String, u16, Vec<u8>, bool)> = m
             .vlrs
             .iter()
+            .filter(|v| !v.is_waveform_data())
             .map(|v| (v.user_id.clone(), v.record_id, v.data.clone(), v.extended))
             .collect();
         assert_eq!(got, want, "{name}");
+        let fields = m.las.as_ref().expect("LAS header fields");
+        assert_eq!(fields.file_source_id, h.file_source_id(), "{name}");
+        let adjusted = h.gps_time_type() == las::GpsTimeType::Standard;
+        assert_eq!(
+            fields.global_encoding & LasFields::ADJUSTED_STANDARD_GPS_TIME != 0,
+            adjusted,
+            "{name}"
+        );
     }
 }
 
@@ -112,4 +124,22 @@ fn parse_header_reads_the_whole_file_bytes() {
     let h = pointlet_io::las::parse_header(&copc).expect("header");
     assert!(h.compressed && h.copc && h.laszip.is_some());
     assert_eq!(h.kept_vlrs.len(), 1, "the WKT record");
+}
+
+/// LAS 1.3 keeps its waveform data packets outside the EVLR count, behind a header pointer.
+#[test]
+fn the_waveform_data_of_a_las_1_3_file_is_kept_verbatim() {
+    let bytes = std::fs::read(data("simple1_3.las")).expect("read");
+    let h = pointlet_io::las::parse_header(&bytes).expect("header");
+    let start = h.start_of_waveform_data as usize;
+    assert!(start > 0 && h.global_encoding & 2 != 0, "internal waveform data");
+    let record = h
+        .kept_vlrs
+        .iter()
+        .find(|v| v.is_waveform_data())
+        .expect("the waveform data record");
+    let len = u64::from_le_bytes(bytes[start + 20..start + 28].try_into().unwrap()) as usize;
+    assert_eq!(record.data, bytes[start + 60..start + 60 + len]);
+    assert!(record.extended);
+    assert!(h.kept_vlrs.iter().any(|v| v.record_id == 100), "its descriptor");
 }

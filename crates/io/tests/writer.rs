@@ -13,6 +13,7 @@ fn config(meta: &SourceMeta, compress: bool) -> LasWriterConfig {
         point_format: meta.las_point_format.expect("format"),
         layout: meta.layout,
         vlrs: meta.vlrs.clone(),
+        fields: meta.las.clone().unwrap_or_default(),
         compress,
     }
 }
@@ -79,22 +80,38 @@ fn every_shared_file_round_trips_through_las_and_laz() {
                     "{name}: return {n}"
                 );
             }
-            let carried: Vec<_> = h
+            let mut carried: Vec<_> = h
                 .vlrs()
                 .iter()
                 .chain(h.evlrs().iter())
-                .filter(|v| v.user_id == "LASF_Projection" || v.user_id == "LASF_Spec")
+                .filter(|v| v.user_id != "laszip encoded")
                 .map(|v| (v.user_id.clone(), v.record_id, v.data.clone()))
                 .collect();
-            let given: Vec<_> = meta
+            let mut given: Vec<_> = meta
                 .vlrs
                 .iter()
                 .map(|v| (v.user_id.clone(), v.record_id, v.data.clone()))
                 .collect();
+            carried.sort();
+            given.sort();
             assert_eq!(carried, given, "{name}");
-            // Our own reader agrees too.
+            assert_eq!(h.file_source_id(), meta.las.as_ref().unwrap().file_source_id);
+            // Our own reader agrees too, and the waveform pointer leads to the waveform data.
             let mut back = pointlet_io::open(&out).expect("reopen");
-            assert_eq!(back.meta().vlrs, meta.vlrs, "{name}");
+            let mut again_vlrs = back.meta().vlrs.clone();
+            let mut meta_vlrs = meta.vlrs.clone();
+            again_vlrs.sort_by_key(|v| (v.user_id.clone(), v.record_id));
+            meta_vlrs.sort_by_key(|v| (v.user_id.clone(), v.record_id));
+            assert_eq!(again_vlrs, meta_vlrs, "{name}");
+            assert_eq!(back.meta().las, meta.las, "{name}");
+            let bytes = std::fs::read(&out).expect("read back");
+            let waveform_at = u64::from_le_bytes(bytes[227..235].try_into().unwrap()) as usize;
+            let has_waveform_data = meta.vlrs.iter().any(|v| v.is_waveform_data());
+            assert_eq!(waveform_at != 0, has_waveform_data, "{name}");
+            assert_eq!(bytes[6] & 2 != 0, has_waveform_data, "{name}: global encoding");
+            if has_waveform_data {
+                assert_eq!(bytes[waveform_at + 18..waveform_at + 20], [0xFF, 0xFF]);
+            }
             let again = read_all(back.as_mut(), 5000);
             assert!(again == points, "{name}: our reader sees other points");
         }
@@ -235,11 +252,20 @@ fn every_point_format_round_trips_as_las_and_laz() {
                 "f{format}.{}",
                 if compress { "laz" } else { "las" }
             ));
+            // Descriptors are written only with the waveform data they point into.
+            let waveform_data = pointlet_core::Vlr {
+                user_id: "LASF_Spec".into(),
+                record_id: 65535,
+                description: "Waveform Data Packets".into(),
+                data: vec![7; 1024],
+                extended: true,
+            };
             let cfg = LasWriterConfig {
                 quantization: q,
                 point_format: format,
                 layout,
-                vlrs: Vec::new(),
+                vlrs: [waveform_data].into_iter().filter(|_| layout.waveform).collect(),
+                fields: Default::default(),
                 compress,
             };
             write(&out, cfg, &points, 33_333);
@@ -307,6 +333,7 @@ fn a_coordinate_that_does_not_fit_is_an_error_naming_the_file() {
             point_format: 0,
             layout,
             vlrs: Vec::new(),
+            fields: Default::default(),
             compress: false,
         },
     )
@@ -336,6 +363,7 @@ fn bad_configurations_are_refused() {
             ..Default::default()
         },
         vlrs: Vec::new(),
+        fields: Default::default(),
         compress: false,
     };
     let mut c = base.clone();
@@ -379,6 +407,7 @@ fn large_laz_in_small_batches_round_trips() {
         point_format: 3,
         layout: f.layout(0),
         vlrs: Vec::new(),
+        fields: Default::default(),
         compress: true,
     };
     assert_eq!(write(&out, cfg, &points, 7_777), points.len() as u64);

@@ -4,7 +4,7 @@
 //! fuzzer's bytes and a multi-gigabyte file; only the records worth keeping are read whole.
 
 use super::record::PointFormat;
-use pointlet_core::{Aabb, Quantization, Vlr};
+use pointlet_core::{Aabb, LasFields, Quantization, Vlr};
 use std::io::{Read, Seek, SeekFrom};
 use thiserror::Error;
 
@@ -14,8 +14,11 @@ const HEADER_SIZE_1_3: u16 = 235;
 const HEADER_SIZE_1_4: u16 = 375;
 const VLR_HEADER: u64 = 54;
 const EVLR_HEADER: u64 = 60;
-/// The largest EVLR this reader keeps in memory (CRS and extra-bytes records are far smaller).
-const MAX_KEPT_EVLR: u64 = 64 << 20;
+/// The largest EVLR this reader keeps: records travel in a store's JSON header, so a larger one
+/// (in practice only waveform data) is left behind.
+pub const MAX_KEPT_EVLR: u64 = 16 << 20;
+/// Global-encoding bit: the waveform data packets are inside the file.
+const WAVEFORM_INTERNAL: u16 = 1 << 1;
 
 /// What is wrong with a LAS file, without the path (the reader adds it).
 #[derive(Debug, Error)]
@@ -104,7 +107,12 @@ pub struct LasHeader {
     pub bounds: Aabb,
     pub start_of_first_evlr: u64,
     pub number_of_evlrs: u32,
-    /// CRS records (LASF_Projection) and the extra-bytes description (LASF_Spec 4), verbatim.
+    /// Where the waveform data packet record starts (LAS 1.3 and later; 0 when none).
+    pub start_of_waveform_data: u64,
+    /// The header fields a store keeps (file source id, project id, GPS time type, ...).
+    pub fields: LasFields,
+    /// Every VLR and EVLR but the LASzip and COPC records, verbatim; the waveform data packets
+    /// are among them when they are inside the file and at most [`MAX_KEPT_EVLR`] bytes.
     pub kept_vlrs: Vec<Vlr>,
     /// The record data of the LASzip VLR, when there is one.
     pub laszip: Option<Vec<u8>>,
@@ -270,6 +278,7 @@ pub(crate) fn parse(src: &mut dyn Source) -> Result<LasHeader, LasError> {
         )));
     }
     let (mut start_of_first_evlr, mut number_of_evlrs) = (0, 0);
+    let start_of_waveform_data = if version.1 >= 3 { u64_at(&h, 227) } else { 0 };
     let mut point_count = u64::from(legacy_count);
     if version.1 >= 4 {
         start_of_first_evlr = u64_at(&h, 235);
@@ -283,9 +292,17 @@ pub(crate) fn parse(src: &mut dyn Source) -> Result<LasHeader, LasError> {
         }
     }
 
+    // File source id and global encoding were reserved bytes before LAS 1.1 and 1.2.
+    let global_encoding = if version.1 >= 2 { u16_at(&h, 6) } else { 0 };
+    let fields = LasFields {
+        global_encoding: global_encoding & LasFields::KEPT_ENCODING,
+        file_source_id: if version.1 >= 1 { u16_at(&h, 4) } else { 0 },
+        project_id: arr(&h, 8),
+        system_identifier: text(&h[26..58]),
+    };
     let mut header = LasHeader {
         version,
-        global_encoding: u16_at(&h, 6),
+        global_encoding,
         header_size,
         offset_to_point_data,
         point_format,
@@ -297,6 +314,8 @@ pub(crate) fn parse(src: &mut dyn Source) -> Result<LasHeader, LasError> {
         bounds: Aabb { min, max },
         start_of_first_evlr,
         number_of_evlrs,
+        start_of_waveform_data,
+        fields,
         kept_vlrs: Vec::new(),
         laszip: None,
         copc: false,
@@ -329,13 +348,15 @@ pub(crate) fn parse(src: &mut dyn Source) -> Result<LasHeader, LasError> {
         }
         read_evlrs(src, &mut header)?;
     }
+    read_waveform_data(src, &mut header)?;
     Ok(header)
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-fn keeps(user_id: &str, record_id: u16) -> bool {
-    user_id == "LASF_Projection" || (user_id == "LASF_Spec" && record_id == 4)
+/// The records a writer makes itself, which no longer apply once the points are rewritten.
+fn regenerated(user_id: &str, record_id: u16) -> bool {
+    (user_id == "laszip encoded" && record_id == 22204) || user_id == "copc"
 }
 
 fn read_vlrs(src: &mut dyn Source, h: &mut LasHeader, count: u32) -> Result<(), LasError> {
@@ -361,25 +382,20 @@ fn read_vlrs(src: &mut dyn Source, h: &mut LasHeader, count: u32) -> Result<(), 
                 i + 1
             )));
         }
-        let wanted = keeps(&user_id, record_id)
-            || (user_id == "laszip encoded" && record_id == 22204)
-            || (user_id == "copc" && record_id == 1);
-        if wanted {
-            let mut data = vec![0u8; data_len as usize];
-            src.read_at(data_start, &mut data)?;
-            if user_id == "laszip encoded" {
-                h.laszip = Some(data);
-            } else if user_id == "copc" {
-                h.copc = true;
-            } else {
-                h.kept_vlrs.push(Vlr {
-                    user_id,
-                    record_id,
-                    description,
-                    data,
-                    extended: false,
-                });
-            }
+        let mut data = vec![0u8; data_len as usize];
+        src.read_at(data_start, &mut data)?;
+        if user_id == "laszip encoded" && record_id == 22204 {
+            h.laszip = Some(data);
+        } else if user_id == "copc" && record_id == 1 {
+            h.copc = true;
+        } else if !regenerated(&user_id, record_id) {
+            h.kept_vlrs.push(Vlr {
+                user_id,
+                record_id,
+                description,
+                data,
+                extended: false,
+            });
         }
         pos = data_start + data_len;
     }
@@ -411,12 +427,7 @@ fn read_evlrs(src: &mut dyn Source, h: &mut LasHeader) -> Result<(), LasError> {
                 i + 1
             )));
         };
-        if keeps(&user_id, record_id) {
-            if data_len > MAX_KEPT_EVLR {
-                return Err(LasError::Unsupported(format!(
-                    "EVLR '{user_id}' {record_id} holds {data_len} bytes, more than the {MAX_KEPT_EVLR} kept in memory"
-                )));
-            }
+        if !regenerated(&user_id, record_id) && data_len <= MAX_KEPT_EVLR {
             let mut data = vec![0u8; data_len as usize];
             src.read_at(data_start, &mut data)?;
             h.kept_vlrs.push(Vlr {
@@ -429,6 +440,41 @@ fn read_evlrs(src: &mut dyn Source, h: &mut LasHeader) -> Result<(), LasError> {
         }
         pos = data_end;
     }
+    Ok(())
+}
+
+/// LAS 1.3 keeps its waveform data packets in a record that is not counted among EVLRs; this
+/// keeps it (once) when the global encoding says the packets are inside the file. A pointer
+/// that leads nowhere keeps nothing: the descriptors are then written as "no packet".
+fn read_waveform_data(src: &mut dyn Source, h: &mut LasHeader) -> Result<(), LasError> {
+    let at = h.start_of_waveform_data;
+    if at == 0
+        || h.global_encoding & WAVEFORM_INTERNAL == 0
+        || h.kept_vlrs.iter().any(Vlr::is_waveform_data)
+        || at.checked_add(EVLR_HEADER).is_none_or(|e| e > src.len())
+    {
+        return Ok(());
+    }
+    let mut raw = [0u8; EVLR_HEADER as usize];
+    src.read_at(at, &mut raw)?;
+    let data_len = u64_at(&raw, 20);
+    let fits = (at + EVLR_HEADER)
+        .checked_add(data_len)
+        .is_some_and(|e| e <= src.len());
+    // The record id is checked, not the user id: writers misspell it (testdata/simple1_3.las
+    // says "LAS_Spec").
+    if u16_at(&raw, 18) != 65535 || !fits || data_len > MAX_KEPT_EVLR {
+        return Ok(());
+    }
+    let mut data = vec![0u8; data_len as usize];
+    src.read_at(at + EVLR_HEADER, &mut data)?;
+    h.kept_vlrs.push(Vlr {
+        user_id: "LASF_Spec".into(),
+        record_id: 65535,
+        description: text(&raw[28..60]),
+        data,
+        extended: true,
+    });
     Ok(())
 }
 

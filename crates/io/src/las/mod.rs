@@ -5,7 +5,7 @@ mod header;
 mod laz;
 pub(crate) mod record;
 
-pub use header::{parse_header, LasError, LasHeader};
+pub use header::{parse_header, LasError, LasHeader, MAX_KEPT_EVLR};
 pub use record::PointFormat;
 
 use crate::{IoError, PointReader};
@@ -56,6 +56,7 @@ fn source_meta(h: &LasHeader) -> SourceMeta {
             .unwrap_or_default(),
         las_point_format: Some(h.point_format),
         vlrs: h.kept_vlrs.clone(),
+        las: Some(h.fields.clone()),
     }
 }
 

@@ -225,6 +225,8 @@ pub(crate) struct Encoder {
     record_len: usize,
     extra: usize,
     q: Quantization,
+    /// Wave packet descriptors are copied; otherwise written as zeros ("no packet").
+    waveform: bool,
 }
 
 #[inline(always)]
@@ -241,6 +243,16 @@ impl Encoder {
             record_len: format.size + usize::from(extra),
             extra: usize::from(extra),
             q,
+            waveform: true,
+        }
+    }
+
+    /// An encoder that writes every wave packet descriptor as "no packet", for files that
+    /// do not carry the waveform data the descriptors point into.
+    pub fn without_waveforms(self) -> Self {
+        Encoder {
+            waveform: false,
+            ..self
         }
     }
 
@@ -387,7 +399,7 @@ impl Encoder {
             if let (Some(at), true) = (f.nir, b.layout.nir) {
                 put(rec, at, &b.nir.get(i).copied().unwrap_or(0).to_le_bytes());
             }
-            if let (Some(at), true) = (f.waveform, b.layout.waveform) {
+            if let (Some(at), true) = (f.waveform, b.layout.waveform && self.waveform) {
                 if let Some(w) = b.waveform.get(i) {
                     put(rec, at, w);
                 }
