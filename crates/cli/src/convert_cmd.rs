@@ -43,7 +43,8 @@ pub fn run(args: Args) -> Result<()> {
         readers.push(pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?);
     }
     let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
-    let meta = pointlet_store::merge_meta(&metas)
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    let meta = pointlet_store::merge_meta(&metas, &names)
         .with_context(|| format!("merging the headers of {}", list_files(&files)))?;
     let claimed: u64 = metas.iter().map(|m| m.point_count).sum();
     let started = std::time::Instant::now();

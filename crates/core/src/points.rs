@@ -174,6 +174,7 @@ impl LasFields {
     /// numbers were generated synthetically.
     pub const KEPT_ENCODING: u16 = 0b1001;
     pub const ADJUSTED_STANDARD_GPS_TIME: u16 = 1;
+    pub const SYNTHETIC_RETURN_NUMBERS: u16 = 1 << 3;
 }
 
 /// What a reader knows about its input before the points: from the header, so it may lie;

@@ -77,6 +77,7 @@ impl Scene {
             layout: LAYOUT,
             las_point_format: Some(3),
             vlrs: Vec::new(),
+            las: None,
         }
     }
 

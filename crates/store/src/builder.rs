@@ -5,7 +5,7 @@ use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
 use crate::runs::{self, Run, RunFile, Spiller};
 use crate::{meta, pio, pointlet_size, StoreError};
 use pointlet_core::codes::KeyGrid;
-use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization, SourceMeta, Vlr};
+use pointlet_core::{Aabb, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr};
 use rayon::prelude::*;
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
@@ -120,11 +120,14 @@ pub struct StoreBuilder {
     seed: u64,
     progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
     quantization: Quantization,
+    /// The key grid points are keyed with as they come: over the header bounds, snapped to the
+    /// quantization grid. `finish` re-keys when the points' own bounds give another grid.
     grid: KeyGrid,
     key_bounds: Aabb,
     layout: PointLayout,
     las_point_format: u8,
     vlrs: Vec<Vlr>,
+    las: Option<LasFields>,
     sources: Vec<String>,
     claimed: u64,
     rl: RecordLayout,
@@ -231,6 +234,13 @@ impl StoreBuilder {
             path: temp_path,
             keep: false,
         };
+        // Snapping makes exact headers (and the exact bounds of PLY/XYZ pre-passes) give the
+        // very box the quantized points span, so only wrong headers cost a second keying.
+        let snap = |p: [f64; 3]| quantization.quantize(p).map(|r| quantization.dequantize(r));
+        let key_bounds = match (snap(b.min), snap(b.max)) {
+            (Ok(min), Ok(max)) => Aabb { min, max },
+            _ => *b,
+        };
         let rl = RecordLayout::new(&layout);
         let (io_chunk, run_capacity, overlap) =
             budget_sizes(config.ram_budget, rl.len, meta.point_count);
@@ -245,11 +255,12 @@ impl StoreBuilder {
             seed: config.seed,
             progress: config.progress,
             quantization,
-            grid: KeyGrid::new(b),
-            key_bounds: *b,
+            grid: KeyGrid::new(&key_bounds),
+            key_bounds,
             layout,
             las_point_format,
             vlrs: meta.vlrs.clone(),
+            las: meta.las.clone(),
             sources,
             claimed: meta.point_count,
             rl,
@@ -455,6 +466,15 @@ impl StoreBuilder {
             min: self.quantization.dequantize(self.raw_min),
             max: self.quantization.dequantize(self.raw_max),
         };
+        if bounds.bounding_cube() != self.key_bounds.bounding_cube() {
+            // The header bounds were wrong: keys over them would make pointlets too large.
+            self.grid = KeyGrid::new(&bounds);
+            if spilled {
+                self.rekey_runs()?;
+            } else {
+                rekey(&mut self.run, self.rl.len, self.quantization, self.grid);
+            }
+        }
         let mut header = StoreHeader {
             version: VERSION,
             points: n,
@@ -463,11 +483,13 @@ impl StoreBuilder {
             target_pointlets: self.target_pointlets,
             seed: self.seed,
             bounds,
-            key_bounds: self.key_bounds,
+            // The same cube as the grid used, whichever box gave it.
+            key_bounds: bounds,
             quantization: self.quantization,
             layout: self.layout,
             las_point_format: self.las_point_format,
             vlrs: std::mem::take(&mut self.vlrs),
+            las: self.las.take(),
             sources: std::mem::take(&mut self.sources),
             streams: Vec::new(),
         };
@@ -566,6 +588,26 @@ impl StoreBuilder {
             bytes: plan.file_len,
             bounds,
         })
+    }
+
+    /// Re-keys every spilled run with the current grid, one run in memory at a time. Points
+    /// that share a key keep their order within the run (their order from the first keying).
+    fn rekey_runs(&mut self) -> Result<(), StoreError> {
+        let rb = self.rl.len;
+        let total: u64 = self.runs.iter().map(|r| r.count).sum();
+        let mut done = 0;
+        for old in std::mem::take(&mut self.runs) {
+            let mut run = runs::read_run(&old, rb, self.io_chunk)?;
+            done += old.count;
+            drop(old);
+            rekey(&mut run, rb, self.quantization, self.grid);
+            runs::sort_pairs(&mut run.pairs);
+            let path = runs::temp_name(&self.run_dir, &self.stem, "run");
+            self.runs
+                .push(runs::write_run(path, &run.records, &run.pairs, rb, self.io_chunk)?);
+            self.report(BuildPhase::Sorting, done, total);
+        }
+        Ok(())
     }
 
     /// Fixes the header's stream offsets, which depend on the header's own length.
@@ -685,6 +727,20 @@ fn merge_into(
         }
         Ok(())
     })
+}
+
+/// Recomputes the keys of a run from its records' quantized positions (their first 12 bytes).
+fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
+    let records = &run.records;
+    run.pairs.par_iter_mut().for_each(|(key, idx)| {
+        let at = *idx as usize * rb;
+        let mut raw = [0i32; 3];
+        for (a, v) in raw.iter_mut().enumerate() {
+            let b = at + 4 * a;
+            *v = i32::from_le_bytes(format::array(&records[b..b + 4]));
+        }
+        *key = grid.hilbert(q.dequantize(raw));
+    });
 }
 
 /// Makes the rename durable where the platform allows; failure here loses nothing already

@@ -7,13 +7,16 @@
 //! Every offset follows from the header length, the layout and the counts ([`plan`]), so the
 //! reader can demand that the file is laid out exactly as the builder would have laid it out.
 
-use pointlet_core::{Aabb, PointLayout, Quantization, Vlr, WAVEFORM_BYTES};
+use pointlet_core::{Aabb, LasFields, PointLayout, Quantization, Vlr, WAVEFORM_BYTES};
 use serde::{Deserialize, Serialize};
 
 /// First eight bytes: a non-ASCII byte, a name, and CR LF / EOF / LF to catch text-mode mangling.
 pub const MAGIC: [u8; 8] = *b"\x89PLT\r\n\x1a\n";
-/// The format version this build writes and reads.
-pub const VERSION: u32 = 1;
+/// The format version this build writes.
+pub const VERSION: u32 = 2;
+/// The oldest version this build reads: version 1 lacks the LAS header fields (`las`) and its
+/// key grid came from the input headers' bounds; the layout is the same.
+pub const OLDEST_READ_VERSION: u32 = 1;
 /// Bytes of the fixed preamble; the JSON header starts right after it.
 pub const PREAMBLE_LEN: u64 = 128;
 /// Bytes of one pointlet table entry.
@@ -138,12 +141,15 @@ pub struct StoreHeader {
     pub seed: u64,
     /// Union of the pointlet AABBs (dequantized points).
     pub bounds: Aabb,
-    /// Box whose bounding cube defines the Hilbert key grid (the merged input bounds).
+    /// Box whose bounding cube defines the Hilbert key grid: `bounds` since version 2, the
+    /// merged input header bounds before.
     pub key_bounds: Aabb,
     pub quantization: Quantization,
     pub layout: PointLayout,
     pub las_point_format: u8,
     pub vlrs: Vec<Vlr>,
+    /// The LAS header fields an export writes back; `None` when no input was LAS/LAZ.
+    pub las: Option<LasFields>,
     pub sources: Vec<String>,
     pub streams: Vec<StreamInfo>,
 }
@@ -270,9 +276,10 @@ impl Preamble {
             return Err("preamble checksum mismatch".into());
         }
         let version = u32_at(8);
-        if version != VERSION {
+        if !(OLDEST_READ_VERSION..=VERSION).contains(&version) {
             return Err(format!(
-                "format version {version} is not supported (this build reads version {VERSION})"
+                "format version {version} is not supported (this build reads versions \
+                 {OLDEST_READ_VERSION} to {VERSION}; a newer build may read it)"
             ));
         }
         if u32_at(12) as u64 != PREAMBLE_LEN {
@@ -386,8 +393,50 @@ struct HeaderJson {
     layout: LayoutJson,
     las_point_format: u8,
     vlrs: Vec<VlrJson>,
+    /// Absent in version 1; `null` when no input was LAS/LAZ.
+    #[serde(default, skip_serializing_if = "Absent::is_absent")]
+    las: Absent<LasJson>,
     sources: Vec<String>,
     streams: Vec<StreamJson>,
+}
+
+/// A field that version 1 lacks and version 2 requires (possibly as `null`).
+#[derive(Default)]
+enum Absent<T> {
+    #[default]
+    Absent,
+    Present(Option<T>),
+}
+
+impl<T> Absent<T> {
+    fn is_absent(&self) -> bool {
+        matches!(self, Absent::Absent)
+    }
+}
+
+impl<T: Serialize> Serialize for Absent<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Absent::Absent | Absent::Present(None) => s.serialize_none(),
+            Absent::Present(Some(v)) => s.serialize_some(v),
+        }
+    }
+}
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Absent<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Option::<T>::deserialize(d).map(Absent::Present)
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LasJson {
+    global_encoding: u16,
+    file_source_id: u16,
+    /// The project GUID's 16 bytes as lowercase hexadecimal.
+    project_id_hex: String,
+    system_identifier: String,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -497,6 +546,12 @@ pub(crate) fn encode_header(h: &StoreHeader) -> Result<Vec<u8>, String> {
                 data_hex: to_hex(&v.data),
             })
             .collect(),
+        las: Absent::Present(h.las.as_ref().map(|l| LasJson {
+            global_encoding: l.global_encoding,
+            file_source_id: l.file_source_id,
+            project_id_hex: to_hex(&l.project_id),
+            system_identifier: l.system_identifier.clone(),
+        })),
         sources: h.sources.clone(),
         streams: h
             .streams
@@ -516,16 +571,36 @@ fn finite_box(b: &AabbJson) -> bool {
     b.min.iter().chain(b.max.iter()).all(|v| v.is_finite()) && (0..3).all(|i| b.min[i] <= b.max[i])
 }
 
-/// Parses the JSON header and checks everything that does not need the rest of the file.
-pub(crate) fn decode_header(bytes: &[u8]) -> Result<StoreHeader, String> {
+/// Parses the JSON header of a store of format `version` (from the preamble) and checks
+/// everything that does not need the rest of the file.
+pub(crate) fn decode_header(bytes: &[u8], version: u32) -> Result<StoreHeader, String> {
     let j: HeaderJson =
         serde_json::from_slice(bytes).map_err(|e| format!("the JSON header is invalid: {e}"))?;
-    if j.version != VERSION {
+    if j.version != version {
         return Err(format!(
-            "the JSON header says version {}, the preamble {VERSION}",
+            "the JSON header says version {}, the preamble {version}",
             j.version
         ));
     }
+    let las = match (j.las, version) {
+        (Absent::Absent, 1) => None,
+        (Absent::Absent, _) => return Err("the JSON header lacks the field `las`".into()),
+        (Absent::Present(_), 1) => {
+            return Err("the JSON header of a version 1 store has the field `las`".into())
+        }
+        (Absent::Present(None), _) => None,
+        (Absent::Present(Some(l)), _) => {
+            let project_id = from_hex(&l.project_id_hex)
+                .and_then(|b| <[u8; 16]>::try_from(b).ok())
+                .ok_or("the LAS project id is not 16 bytes of hexadecimal")?;
+            Some(LasFields {
+                global_encoding: l.global_encoding,
+                file_source_id: l.file_source_id,
+                project_id,
+                system_identifier: l.system_identifier,
+            })
+        }
+    };
     if j.points == 0 {
         return Err("the header claims no points".into());
     }
@@ -626,6 +701,7 @@ pub(crate) fn decode_header(bytes: &[u8]) -> Result<StoreHeader, String> {
         layout,
         las_point_format: j.las_point_format,
         vlrs,
+        las,
         sources: j.sources,
         streams,
     })

@@ -74,7 +74,7 @@ impl Store {
         if crc32fast::hash(&header_bytes) != pre.header_crc {
             return Err(bad("header checksum mismatch".into()));
         }
-        let header = format::decode_header(&header_bytes).map_err(bad)?;
+        let header = format::decode_header(&header_bytes, pre.version).map_err(bad)?;
         drop(header_bytes);
         let plan = format::plan(h.len, header.points, header.pointlets, &header.layout)
             .ok_or_else(|| bad("the header's sizes overflow 64 bits".into()))?;

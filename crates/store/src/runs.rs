@@ -95,6 +95,33 @@ pub(crate) fn write_run(
     Ok(run)
 }
 
+/// Reads a run file back into memory: its records in file order, with pairs `(0, i)` whose
+/// keys the caller computes anew.
+pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<Run, StoreError> {
+    let entry = 8 + rb;
+    let n = usize::try_from(run.count)
+        .map_err(|_| StoreError::build(&run.path, "a run larger than memory"))?;
+    let mut file = File::open(&run.path)
+        .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+    let mut out = Run {
+        records: Vec::with_capacity(n * rb),
+        pairs: (0..n as u32).map(|i| (0, i)).collect(),
+    };
+    let mut buf = vec![0u8; (chunk_bytes / entry).max(1) * entry];
+    let mut left = n;
+    while left > 0 {
+        let take = left.min(buf.len() / entry);
+        let part = &mut buf[..take * entry];
+        file.read_exact(part)
+            .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
+        for e in part.chunks_exact(entry) {
+            out.records.extend_from_slice(&e[8..]);
+        }
+        left -= take;
+    }
+    Ok(out)
+}
+
 /// Sorts (key, index) pairs: by key, ties by input order.
 pub(crate) fn sort_pairs(pairs: &mut [(u64, u32)]) {
     pairs.par_sort_unstable();

@@ -139,9 +139,11 @@ fn pointlets_are_hilbert_ranges_shuffled_by_their_seed() {
     let out = dir.path().join("s.pointlet");
     build(&out, config(1 << 16, 50, seed), &m, &batches);
     let store = Store::open(&out).unwrap();
-    // Reference order: Hilbert key of the dequantized position over the claimed bounds, ties
-    // by input order. gps_time holds the input index.
-    let grid = KeyGrid::new(&m.bounds);
+    // Reference order: Hilbert key of the dequantized position over the points' bounds (not
+    // the claimed ones), ties by input order. gps_time holds the input index.
+    assert_ne!(store.header().bounds, m.bounds, "the claim is not the points' bounds");
+    assert_eq!(store.header().key_bounds, store.header().bounds);
+    let grid = KeyGrid::new(&store.header().bounds);
     let mut sorted: Vec<(u64, u64)> = batches
         .iter()
         .flat_map(|b| b.xyz.iter().zip(&b.gps_time))

@@ -52,6 +52,7 @@ pub fn meta(layout: PointLayout, points: u64) -> SourceMeta {
             data: b"PROJCS[\"test\"]\0".to_vec(),
             extended: false,
         }],
+        las: None,
     }
 }
 
