@@ -107,6 +107,7 @@ fn reading_back_gives_every_point_and_attribute() {
         assert_eq!(h.layout, layout);
         assert_eq!(h.quantization, Q);
         assert_eq!(h.vlrs, m.vlrs);
+        assert_eq!(h.las, m.las);
         assert_eq!(h.sources, vec!["synthetic".to_string()]);
         assert_eq!(h.seed, 5);
         assert_eq!(h.las_point_format, layout.las_point_format());
@@ -356,4 +357,42 @@ fn unquantized_sources_get_a_quantization() {
     let store = Store::open(&out).unwrap();
     assert_eq!(store.header().quantization.scale, [0.001; 3]);
     assert_eq!(store.header().points, 100);
+}
+
+/// Header bounds that are zero, scaled or shifted give the store that true bounds give: keys
+/// are computed over the points' own bounds, in memory and through spilled runs alike.
+#[test]
+fn wrong_header_bounds_give_the_same_store() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 30_000;
+    let batches = batches(RGB_GPS_EXTRA, n, 4000, 9);
+    let mut truth = pointlet_core::Aabb::EMPTY;
+    batches
+        .iter()
+        .flat_map(|b| b.xyz.iter())
+        .for_each(|p| truth.grow(*p));
+    let with_bounds = |bounds: pointlet_core::Aabb| pointlet_core::SourceMeta {
+        bounds,
+        ..meta(RGB_GPS_EXTRA, n as u64)
+    };
+    let zero = pointlet_core::Aabb {
+        min: [0.0; 3],
+        max: [0.0; 3],
+    };
+    let scaled = pointlet_core::Aabb {
+        min: truth.min.map(|v| v * 1000.0),
+        max: truth.max.map(|v| v * 1000.0),
+    };
+    let reference = dir.path().join("true.pointlet");
+    build(&reference, config(1 << 30, 100, 3), &with_bounds(truth), &batches);
+    let want = std::fs::read(&reference).unwrap();
+    for (name, bounds) in [("zero", zero), ("scaled", scaled), ("claimed", claimed_bounds())] {
+        for budget in [1u64 << 30, 1 << 18] {
+            let out = dir.path().join(format!("{name}-{budget}.pointlet"));
+            let s = build(&out, config(budget, 100, 3), &with_bounds(bounds), &batches);
+            assert_eq!(s.runs > 0, budget < 1 << 20, "{name}: spilled as meant");
+            let got = std::fs::read(&out).unwrap();
+            assert!(got == want, "{name} bounds, budget {budget}: another store");
+        }
+    }
 }

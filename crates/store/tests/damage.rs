@@ -154,7 +154,12 @@ fn lying_headers_with_valid_checksums_are_refused() {
         |v| v["streams"][2]["name"] = serde_json::json!("intensity"),
         |v| v["vlrs"][0]["data_hex"] = serde_json::json!("xyz"),
         |v| v["las_point_format"] = serde_json::json!(200),
-        |v| v["version"] = serde_json::json!(2),
+        |v| v["version"] = serde_json::json!(1),
+        |v| v["version"] = serde_json::json!(3),
+        |v| v["las"]["project_id_hex"] = serde_json::json!("00"),
+        |v| {
+            v.as_object_mut().unwrap().remove("las");
+        },
         |v| v["surprise"] = serde_json::json!(1),
         |v| *v = serde_json::json!([1, 2, 3]),
     ];
@@ -166,6 +171,33 @@ fn lying_headers_with_valid_checksums_are_refused() {
     // The same edit machinery leaves a good header good.
     std::fs::write(&p, with_header(&good, |_| {})).unwrap();
     assert!(!refused(&p));
+}
+
+/// `good` with the format version of its preamble set to `version`.
+fn with_version(good: &[u8], version: u32) -> Vec<u8> {
+    let mut out = good.to_vec();
+    out[8..12].copy_from_slice(&version.to_le_bytes());
+    let crc = crc32fast::hash(&out[0..124]);
+    out[124..128].copy_from_slice(&crc.to_le_bytes());
+    out
+}
+
+#[test]
+fn version_1_stores_are_read_and_later_versions_refused_with_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = small_store(dir.path());
+    let p = dir.path().join("old.pointlet");
+    let v1 = with_header(&good, |v| {
+        v["version"] = serde_json::json!(1);
+        v.as_object_mut().unwrap().remove("las");
+    });
+    std::fs::write(&p, with_version(&v1, 1)).unwrap();
+    let store = Store::open(&p).unwrap();
+    assert_eq!((store.header().version, &store.header().las), (1, &None));
+    store.verify().unwrap();
+    std::fs::write(&p, with_version(&good, 3)).unwrap();
+    let e = Store::open(&p).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("version 3 is not supported"), "{e}");
 }
 
 #[test]

@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use pointlet_core::shuffle::SplitMix64;
-use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES};
+use pointlet_core::{
+    Aabb, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES,
+};
 use pointlet_store::{BuildConfig, BuildSummary, StoreBuilder};
 use std::path::{Path, PathBuf};
 
@@ -52,7 +54,12 @@ pub fn meta(layout: PointLayout, points: u64) -> SourceMeta {
             data: b"PROJCS[\"test\"]\0".to_vec(),
             extended: false,
         }],
-        las: None,
+        las: Some(LasFields {
+            global_encoding: LasFields::ADJUSTED_STANDARD_GPS_TIME,
+            file_source_id: 42,
+            project_id: *b"0123456789abcdef",
+            system_identifier: "test scanner".into(),
+        }),
     }
 }
 
