@@ -1,4 +1,5 @@
-//! `pointlet export`: a store (or the part of it inside a box) back to LAS/LAZ 1.4.
+//! `pointlet export`: a store (or the part of it inside a box) back to LAS/LAZ 1.4, with the
+//! records and header fields the store kept (waveform data included, so descriptors stay valid).
 
 use anyhow::{bail, Context, Result};
 use pointlet_core::{Aabb, PointBatch};
@@ -58,6 +59,7 @@ pub fn run(args: Args) -> Result<()> {
             point_format: h.las_point_format,
             layout: h.layout,
             vlrs: h.vlrs.clone(),
+            fields: h.las.clone().unwrap_or_default(),
             compress: ext == "laz",
         },
     )

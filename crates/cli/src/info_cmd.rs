@@ -1,7 +1,8 @@
 //! `pointlet info`: what a store or a point file holds.
 
 use anyhow::{Context, Result};
-use pointlet_core::{Aabb, PointLayout, SourceMeta, Vlr};
+use pointlet_core::crs::{Crs, CrsId};
+use pointlet_core::{Aabb, LasFields, PointLayout, SourceMeta, Vlr};
 use serde_json::{json, Value};
 use std::path::PathBuf;
 
@@ -12,19 +13,35 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// For stores: verify every checksum (reads the whole file).
+    /// Read everything: for stores, verify every checksum; for point files, read every point
+    /// (files of up to 2M points are read anyway) to give their real bounds.
     #[arg(long)]
     pub verify: bool,
 }
+
+/// Point files up to this many points are read whole to check the header bounds.
+const READ_POINTS_UP_TO: u64 = 2_000_000;
 
 pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
         store_info(&args)?
     } else {
-        let reader = pointlet_io::open(&args.input)
+        let mut reader = pointlet_io::open(&args.input)
             .with_context(|| format!("opening {}", args.input.display()))?;
-        file_info(reader.meta())
+        let meta = reader.meta().clone();
+        let points_bounds = if args.verify || meta.point_count <= READ_POINTS_UP_TO {
+            Some(read_bounds(reader.as_mut())?)
+        } else {
+            None
+        };
+        file_info(&meta, points_bounds)
     };
+    if info["header_bounds_agree"] == Value::Bool(false) {
+        eprintln!(
+            "warning: the header bounds of {} are not the bounds of its points",
+            args.input.display()
+        );
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&info)?);
     } else {
@@ -73,11 +90,48 @@ fn store_info(args: &Args) -> Result<Value> {
     }))
 }
 
-fn file_info(m: &SourceMeta) -> Value {
+/// The bounds of every point of the file (reading it whole).
+fn read_bounds(reader: &mut dyn pointlet_io::PointReader) -> Result<Aabb> {
+    let mut bounds = Aabb::EMPTY;
+    while let Some(batch) = reader.read_batch(1 << 20)? {
+        batch.xyz.iter().for_each(|p| bounds.grow(*p));
+    }
+    Ok(bounds)
+}
+
+/// A point file's info. LAS bounds are the header's claim (`header_bounds`); `bounds` are the
+/// points' own when they were read (PLY and text bounds come from reading the points anyway).
+fn file_info(m: &SourceMeta, points_bounds: Option<Aabb>) -> Value {
+    let claimed = m.las.is_some();
+    let bounds = match (claimed, points_bounds) {
+        (_, Some(b)) => bounds_json(&b),
+        (false, None) => bounds_json(&m.bounds),
+        (true, None) => Value::Null,
+    };
+    // Within half a quantization step, the header says what the points say.
+    let agree = points_bounds.filter(|_| claimed).map(|p| {
+        let half = m
+            .quantization
+            .map_or([0.0; 3], |q| q.scale.map(|s| s / 2.0));
+        (0..3).all(|a| {
+            (p.min[a] - m.bounds.min[a]).abs() <= half[a] * 1.001
+                && (p.max[a] - m.bounds.max[a]).abs() <= half[a] * 1.001
+        })
+    });
     json!({
         "format": m.format,
         "points": m.point_count,
-        "bounds": bounds_json(&m.bounds),
+        "bounds": bounds,
+        "header_bounds": if claimed { bounds_json(&m.bounds) } else { Value::Null },
+        "header_bounds_agree": agree,
+        "file_source_id": m.las.as_ref().map(|l| l.file_source_id),
+        "gps_time_type": m.las.as_ref().filter(|_| m.layout.gps_time).map(|l| {
+            if l.global_encoding & LasFields::ADJUSTED_STANDARD_GPS_TIME != 0 {
+                "adjusted standard"
+            } else {
+                "week"
+            }
+        }),
         "scale": m.quantization.map(|q| q.scale),
         "offset": m.quantization.map(|q| q.offset),
         "attributes": attributes(&m.layout),
@@ -127,31 +181,24 @@ pub fn attributes(l: &PointLayout) -> Vec<String> {
     a
 }
 
-/// The CRS as well as the records allow: WKT text, or the EPSG code of the GeoTIFF keys.
+/// The CRS the records name (see `pointlet_core::crs`): `name` like `EPSG:2994`,
+/// `EPSG:2994 + EPSG:5703 vertical` or `user-defined (citation)`; null without CRS records.
 pub fn crs(vlrs: &[Vlr]) -> Value {
-    for v in vlrs.iter().filter(|v| v.is_crs()) {
-        if v.record_id == 2112 {
-            let wkt = String::from_utf8_lossy(&v.data)
-                .trim_end_matches('\0')
-                .to_string();
-            return json!({ "wkt": wkt });
-        }
-    }
-    if let Some(v) = vlrs.iter().find(|v| v.is_crs() && v.record_id == 34735) {
-        let keys: Vec<u16> = v
-            .data
-            .chunks_exact(2)
-            .map(|c| u16::from_le_bytes([c[0], c[1]]))
-            .collect();
-        // Entries of 4 u16 after a 4 u16 header: projected (3072) or geographic (2048) EPSG code.
-        let epsg = keys
-            .chunks_exact(4)
-            .skip(1)
-            .find(|e| (e[0] == 3072 || e[0] == 2048) && e[1] == 0)
-            .map(|e| e[3]);
-        return json!({ "geotiff_keys": keys.len().saturating_sub(4) / 4, "epsg": epsg });
-    }
-    Value::Null
+    let Some(c) = Crs::from_vlrs(vlrs) else {
+        return Value::Null;
+    };
+    let epsg = |id: &Option<CrsId>| match id {
+        Some(CrsId::Epsg(code)) => Some(*code),
+        _ => None,
+    };
+    json!({
+        "name": c.to_string(),
+        "epsg": epsg(&c.horizontal),
+        "vertical_epsg": epsg(&c.vertical),
+        "user_defined": matches!(c.horizontal, Some(CrsId::UserDefined(_))),
+        "encoding": c.encoding,
+        "wkt": c.wkt,
+    })
 }
 
 fn print_text(path: &std::path::Path, v: &Value) {
@@ -175,8 +222,17 @@ fn print_text(path: &std::path::Path, v: &Value) {
             v["pointlet_extent"]["max"].as_f64().unwrap_or(0.0)
         );
     }
-    println!("  bounds min  {}", v["bounds"]["min"]);
-    println!("  bounds max  {}", v["bounds"]["max"]);
+    if !v["header_bounds"].is_null() {
+        println!("  header bounds min  {}", v["header_bounds"]["min"]);
+        println!("  header bounds max  {}", v["header_bounds"]["max"]);
+    }
+    if v["bounds"].is_null() {
+        println!("  bounds      not read (--verify reads every point)");
+    } else {
+        println!("  bounds min  {}", v["bounds"]["min"]);
+        println!("  bounds max  {}", v["bounds"]["max"]);
+    }
+
     if !get("scale").is_null() {
         println!("  scale       {}", get("scale"));
         println!("  offset      {}", get("offset"));
@@ -191,14 +247,9 @@ fn print_text(path: &std::path::Path, v: &Value) {
         .unwrap_or_default();
     println!("  attributes  {}", attrs.join(", "));
     let crs = get("crs");
-    let crs_text = if let Some(w) = crs.get("wkt").and_then(|w| w.as_str()) {
-        w.chars().take(100).collect::<String>()
-    } else if let Some(e) = crs.get("epsg").and_then(|e| e.as_u64()) {
-        format!("EPSG:{e} (GeoTIFF keys)")
-    } else if crs.is_null() {
-        "none".to_string()
-    } else {
-        "GeoTIFF keys".to_string()
+    let crs_text = match (crs["name"].as_str(), crs["encoding"].as_str()) {
+        (Some(name), Some(encoding)) => format!("{name} ({encoding})"),
+        _ => "none".to_string(),
     };
     println!("  crs         {crs_text}");
     if v.get("verified").and_then(|b| b.as_bool()) == Some(true) {

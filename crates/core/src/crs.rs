@@ -150,11 +150,7 @@ fn geotiff(data: &[u8], ascii: &[u8]) -> Option<(Option<CrsId>, Option<CrsId>)> 
         .collect();
     let count = usize::from(*words.get(3)?);
     let keys: Vec<&[u16]> = words.get(4..)?.chunks_exact(4).take(count).collect();
-    let short = |id: u16| {
-        keys.iter()
-            .find(|k| k[0] == id && k[1] == 0)
-            .map(|k| k[3])
-    };
+    let short = |id: u16| keys.iter().find(|k| k[0] == id && k[1] == 0).map(|k| k[3]);
     let citation = |ids: &[u16]| {
         ids.iter().find_map(|id| {
             let k = keys.iter().find(|k| k[0] == *id && k[1] == GEOTIFF_ASCII)?;
@@ -162,7 +158,8 @@ fn geotiff(data: &[u8], ascii: &[u8]) -> Option<(Option<CrsId>, Option<CrsId>)> 
             let text = ascii.get(at..at.checked_add(len)?)?;
             let text = String::from_utf8_lossy(text);
             let text = text.trim_end_matches(['|', '\0']).trim();
-            (!text.is_empty()).then(|| text.to_string())
+            let named = !text.is_empty() && !text.eq_ignore_ascii_case("unnamed");
+            named.then(|| text.to_string())
         })
     };
     let code = |v: u16, citations: &[u16]| match v {
@@ -324,7 +321,11 @@ mod tests {
 
     #[test]
     fn geotiff_user_defined_is_named_by_its_citation() {
-        let k = keys(&[[2048, 0, 1, 32767], [3072, 0, 1, 32767], [3073, 34737, 4, 0]]);
+        let k = keys(&[
+            [2048, 0, 1, 32767],
+            [3072, 0, 1, 32767],
+            [3073, 34737, 4, 0],
+        ]);
         let ascii = vlr(GEOTIFF_ASCII, b"LCC1|x|\0".to_vec());
         let c = Crs::from_vlrs(&[k.clone(), ascii]).unwrap();
         assert_eq!(c.horizontal, Some(CrsId::UserDefined(Some("LCC1".into()))));
@@ -336,7 +337,10 @@ mod tests {
     fn wkt_top_level_authority_else_name_and_compound_parts() {
         let w = |s: &str| vlr(WKT, s.as_bytes().to_vec());
         let projcs = r#"PROJCS["a",GEOGCS["g",AUTHORITY["EPSG","4152"]],AUTHORITY["EPSG","2994"]]"#;
-        assert_eq!(Crs::from_vlrs(&[w(projcs)]).unwrap().to_string(), "EPSG:2994");
+        assert_eq!(
+            Crs::from_vlrs(&[w(projcs)]).unwrap().to_string(),
+            "EPSG:2994"
+        );
         let named = r#"PROJCS["Lambert, ""x""",GEOGCS["g",AUTHORITY["EPSG","4152"]]]"#;
         assert_eq!(
             Crs::from_vlrs(&[w(named)]).unwrap().horizontal,
@@ -348,7 +352,10 @@ mod tests {
             "EPSG:2991 + EPSG:6360 vertical"
         );
         let wkt2 = r#"PROJCRS["p", BASEGEOGCRS["g"], ID["EPSG", 32633]]"#;
-        assert_eq!(Crs::from_vlrs(&[w(wkt2)]).unwrap().to_string(), "EPSG:32633");
+        assert_eq!(
+            Crs::from_vlrs(&[w(wkt2)]).unwrap().to_string(),
+            "EPSG:32633"
+        );
         for bad in ["", "PROJCS[", "PROJCS[\"a\"", &"A[".repeat(100)] {
             let c = Crs::from_vlrs(&[w(bad)]).unwrap();
             assert_eq!(c.horizontal, None, "{bad}");
@@ -367,6 +374,9 @@ mod tests {
         assert!(same_crs(&[], &[]));
         let user = keys(&[[3072, 0, 1, 32767]]);
         let user2 = keys(&[[3072, 0, 1, 32767], [3076, 0, 1, 9002]]);
-        assert!(!same_crs(&[user], &[user2]), "user-defined: records must match");
+        assert!(
+            !same_crs(&[user], &[user2]),
+            "user-defined: records must match"
+        );
     }
 }

@@ -17,6 +17,5 @@ pub mod size;
 pub use aabb::Aabb;
 pub use camera::Camera;
 pub use points::{
-    flags, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr,
-    WAVEFORM_BYTES,
+    flags, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES,
 };

@@ -132,7 +132,10 @@ fn the_waveform_data_of_a_las_1_3_file_is_kept_verbatim() {
     let bytes = std::fs::read(data("simple1_3.las")).expect("read");
     let h = pointlet_io::las::parse_header(&bytes).expect("header");
     let start = h.start_of_waveform_data as usize;
-    assert!(start > 0 && h.global_encoding & 2 != 0, "internal waveform data");
+    assert!(
+        start > 0 && h.global_encoding & 2 != 0,
+        "internal waveform data"
+    );
     let record = h
         .kept_vlrs
         .iter()
@@ -141,5 +144,8 @@ fn the_waveform_data_of_a_las_1_3_file_is_kept_verbatim() {
     let len = u64::from_le_bytes(bytes[start + 20..start + 28].try_into().unwrap()) as usize;
     assert_eq!(record.data, bytes[start + 60..start + 60 + len]);
     assert!(record.extended);
-    assert!(h.kept_vlrs.iter().any(|v| v.record_id == 100), "its descriptor");
+    assert!(
+        h.kept_vlrs.iter().any(|v| v.record_id == 100),
+        "its descriptor"
+    );
 }

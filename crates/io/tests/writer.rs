@@ -95,7 +95,10 @@ fn every_shared_file_round_trips_through_las_and_laz() {
             carried.sort();
             given.sort();
             assert_eq!(carried, given, "{name}");
-            assert_eq!(h.file_source_id(), meta.las.as_ref().unwrap().file_source_id);
+            assert_eq!(
+                h.file_source_id(),
+                meta.las.as_ref().unwrap().file_source_id
+            );
             // Our own reader agrees too, and the waveform pointer leads to the waveform data.
             let mut back = pointlet_io::open(&out).expect("reopen");
             let mut again_vlrs = back.meta().vlrs.clone();
@@ -108,7 +111,11 @@ fn every_shared_file_round_trips_through_las_and_laz() {
             let waveform_at = u64::from_le_bytes(bytes[227..235].try_into().unwrap()) as usize;
             let has_waveform_data = meta.vlrs.iter().any(|v| v.is_waveform_data());
             assert_eq!(waveform_at != 0, has_waveform_data, "{name}");
-            assert_eq!(bytes[6] & 2 != 0, has_waveform_data, "{name}: global encoding");
+            assert_eq!(
+                bytes[6] & 2 != 0,
+                has_waveform_data,
+                "{name}: global encoding"
+            );
             if has_waveform_data {
                 assert_eq!(bytes[waveform_at + 18..waveform_at + 20], [0xFF, 0xFF]);
             }
@@ -264,7 +271,10 @@ fn every_point_format_round_trips_as_las_and_laz() {
                 quantization: q,
                 point_format: format,
                 layout,
-                vlrs: [waveform_data].into_iter().filter(|_| layout.waveform).collect(),
+                vlrs: [waveform_data]
+                    .into_iter()
+                    .filter(|_| layout.waveform)
+                    .collect(),
                 fields: Default::default(),
                 compress,
             };

@@ -603,8 +603,13 @@ impl StoreBuilder {
             rekey(&mut run, rb, self.quantization, self.grid);
             runs::sort_pairs(&mut run.pairs);
             let path = runs::temp_name(&self.run_dir, &self.stem, "run");
-            self.runs
-                .push(runs::write_run(path, &run.records, &run.pairs, rb, self.io_chunk)?);
+            self.runs.push(runs::write_run(
+                path,
+                &run.records,
+                &run.pairs,
+                rb,
+                self.io_chunk,
+            )?);
             self.report(BuildPhase::Sorting, done, total);
         }
         Ok(())

@@ -327,7 +327,11 @@ mod tests {
     fn float_inputs_get_millimetres_then_centimetres_then_an_error() {
         let small = meta(2, [0.0; 3], [1000.0; 3], None);
         assert_eq!(
-            merge_meta(&[small], &[]).unwrap().quantization.unwrap().scale,
+            merge_meta(&[small], &[])
+                .unwrap()
+                .quantization
+                .unwrap()
+                .scale,
             [0.001; 3]
         );
         // 10 000 km does not fit at 1 mm (4 295 km) but does at 1 cm.
@@ -471,7 +475,10 @@ mod tests {
         a.las = Some(fields.clone());
         a.vlrs = vec![rec(1, 1), rec(2, 2), rec(200, 3)];
         let one = merge_meta(std::slice::from_ref(&a), &[]).unwrap();
-        assert_eq!((one.vlrs.clone(), one.las.clone()), (a.vlrs.clone(), a.las.clone()));
+        assert_eq!(
+            (one.vlrs.clone(), one.las.clone()),
+            (a.vlrs.clone(), a.las.clone())
+        );
         let mut b = a.clone();
         b.vlrs = vec![rec(200, 3), rec(2, 9)];
         b.las = Some(LasFields {
@@ -490,6 +497,9 @@ mod tests {
         // GPS week time and adjusted standard time do not mix.
         b.las.as_mut().unwrap().global_encoding = 0;
         let e = merge_meta(&[a, b], &[]).unwrap_err().to_string();
-        assert!(e.contains("GPS week time") && e.contains("adjusted standard"), "{e}");
+        assert!(
+            e.contains("GPS week time") && e.contains("adjusted standard"),
+            "{e}"
+        );
     }
 }

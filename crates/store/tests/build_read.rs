@@ -142,7 +142,11 @@ fn pointlets_are_hilbert_ranges_shuffled_by_their_seed() {
     let store = Store::open(&out).unwrap();
     // Reference order: Hilbert key of the dequantized position over the points' bounds (not
     // the claimed ones), ties by input order. gps_time holds the input index.
-    assert_ne!(store.header().bounds, m.bounds, "the claim is not the points' bounds");
+    assert_ne!(
+        store.header().bounds,
+        m.bounds,
+        "the claim is not the points' bounds"
+    );
     assert_eq!(store.header().key_bounds, store.header().bounds);
     let grid = KeyGrid::new(&store.header().bounds);
     let mut sorted: Vec<(u64, u64)> = batches
@@ -384,9 +388,18 @@ fn wrong_header_bounds_give_the_same_store() {
         max: truth.max.map(|v| v * 1000.0),
     };
     let reference = dir.path().join("true.pointlet");
-    build(&reference, config(1 << 30, 100, 3), &with_bounds(truth), &batches);
+    build(
+        &reference,
+        config(1 << 30, 100, 3),
+        &with_bounds(truth),
+        &batches,
+    );
     let want = std::fs::read(&reference).unwrap();
-    for (name, bounds) in [("zero", zero), ("scaled", scaled), ("claimed", claimed_bounds())] {
+    for (name, bounds) in [
+        ("zero", zero),
+        ("scaled", scaled),
+        ("claimed", claimed_bounds()),
+    ] {
         for budget in [1u64 << 30, 1 << 18] {
             let out = dir.path().join(format!("{name}-{budget}.pointlet"));
             let s = build(&out, config(budget, 100, 3), &with_bounds(bounds), &batches);
