@@ -367,10 +367,11 @@ mod tests {
         let k = keys(&[[3072, 0, 1, 2994]]);
         let w = vlr(WKT, br#"PROJCS["x",AUTHORITY["EPSG","2994"]]"#.to_vec());
         let other = keys(&[[3072, 0, 1, 2992]]);
-        assert!(same_crs(&[k.clone()], &[k.clone()]));
-        assert!(same_crs(&[k.clone()], &[w]));
-        assert!(!same_crs(&[k.clone()], &[other]));
-        assert!(!same_crs(&[k], &[]));
+        let k = std::slice::from_ref(&k);
+        assert!(same_crs(k, k));
+        assert!(same_crs(k, &[w]));
+        assert!(!same_crs(k, &[other]));
+        assert!(!same_crs(k, &[]));
         assert!(same_crs(&[], &[]));
         let user = keys(&[[3072, 0, 1, 32767]]);
         let user2 = keys(&[[3072, 0, 1, 32767], [3076, 0, 1, 9002]]);
