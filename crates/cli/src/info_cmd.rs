@@ -85,6 +85,8 @@ fn store_info(args: &Args) -> Result<Value> {
         "attributes": attributes(&h.layout),
         "las_point_format": h.las_point_format,
         "crs": crs(&h.vlrs),
+        "file_source_id": h.las.as_ref().map(|l| l.file_source_id),
+        "gps_time_type": gps_time_type(h.las.as_ref(), &h.layout),
         "sources": h.sources,
         "verified": args.verify,
     }))
@@ -125,19 +127,25 @@ fn file_info(m: &SourceMeta, points_bounds: Option<Aabb>) -> Value {
         "header_bounds": if claimed { bounds_json(&m.bounds) } else { Value::Null },
         "header_bounds_agree": agree,
         "file_source_id": m.las.as_ref().map(|l| l.file_source_id),
-        "gps_time_type": m.las.as_ref().filter(|_| m.layout.gps_time).map(|l| {
-            if l.global_encoding & LasFields::ADJUSTED_STANDARD_GPS_TIME != 0 {
-                "adjusted standard"
-            } else {
-                "week"
-            }
-        }),
+        "gps_time_type": gps_time_type(m.las.as_ref(), &m.layout),
         "scale": m.quantization.map(|q| q.scale),
         "offset": m.quantization.map(|q| q.offset),
         "attributes": attributes(&m.layout),
         "las_point_format": m.las_point_format,
         "crs": crs(&m.vlrs),
     })
+}
+
+/// "adjusted standard" or "week" (the LAS global-encoding bit), for LAS data with GPS times.
+fn gps_time_type(las: Option<&LasFields>, layout: &PointLayout) -> Option<&'static str> {
+    let las = las.filter(|_| layout.gps_time)?;
+    Some(
+        if las.global_encoding & LasFields::ADJUSTED_STANDARD_GPS_TIME != 0 {
+            "adjusted standard"
+        } else {
+            "week"
+        },
+    )
 }
 
 fn bounds_json(b: &Aabb) -> Value {

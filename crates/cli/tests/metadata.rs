@@ -73,6 +73,8 @@ fn export_writes_back_the_header_fields_and_records_of_every_file() {
         ok(&["export", s(&store), "-o", s(&las)]);
         let (a, b) = (header(&input), header(&las));
         let name = input.display();
+        let v = info(&store);
+        assert_eq!(v["file_source_id"], a.fields.file_source_id, "{name}");
         assert_eq!(a.fields, b.fields, "{name}: header fields");
         assert_eq!(records(&a), records(&b), "{name}: records");
         // The las crate reads the GPS time type and file source id alike.

@@ -415,8 +415,13 @@ fn read_evlrs(src: &mut dyn Source, h: &mut LasHeader) -> Result<(), LasError> {
             )));
         }
         src.read_at(pos, &mut raw)?;
-        let user_id = text(&raw[2..18]);
         let record_id = u16_at(&raw, 18);
+        // The record the waveform pointer leads to is the waveform data, however it is spelt.
+        let user_id = if pos == h.start_of_waveform_data && record_id == 65535 {
+            "LASF_Spec".to_string()
+        } else {
+            text(&raw[2..18])
+        };
         let data_len = u64_at(&raw, 20);
         let description = text(&raw[28..60]);
         let data_start = pos + EVLR_HEADER;
