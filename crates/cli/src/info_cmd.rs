@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Read everything: for stores, verify every checksum; for point files, read every point
-    /// (files of up to 2M points are read anyway) to give their real bounds.
+    /// (LAS/LAZ files of up to 2M points are read anyway) to give their real bounds.
     #[arg(long)]
     pub verify: bool,
 }
@@ -29,7 +29,9 @@ pub fn run(args: Args) -> Result<()> {
         let mut reader = pointlet_io::open(&args.input)
             .with_context(|| format!("opening {}", args.input.display()))?;
         let meta = reader.meta().clone();
-        let points_bounds = if args.verify || meta.point_count <= READ_POINTS_UP_TO {
+        // Only LAS bounds are a claim; PLY and text readers measured theirs already.
+        let small_las = meta.las.is_some() && meta.point_count <= READ_POINTS_UP_TO;
+        let points_bounds = if args.verify || small_las {
             Some(read_bounds(reader.as_mut())?)
         } else {
             None
