@@ -252,8 +252,14 @@ pub(crate) fn choose_quantization(
                 .map(|o| (*s, o))
         });
         let Some((scale, offset)) = found else {
+            // LAS bounds are only what the headers claim, and headers can be wrong.
+            let claim = if quantized.is_empty() {
+                ""
+            } else {
+                " (by the bounds their headers claim)"
+            };
             return Err(StoreError::meta(format!(
-                "the inputs span {:e} to {:e} on {}: too far apart for 32-bit integer \
+                "the inputs span {:e} to {:e} on {}{claim}: too far apart for 32-bit integer \
                  coordinates even at a scale of {limit}",
                 bounds.min[axis], bounds.max[axis], axis_name
             )));
