@@ -4,7 +4,6 @@
 use crate::render_cmd::reorder;
 use crate::view_args::{parse_encoding, parse_order, parse_variant};
 use anyhow::{bail, Context, Result};
-use pointlet_core::color::ColorMode;
 use pointlet_core::order::VertexOrder;
 use pointlet_core::Camera;
 use pointlet_gpu::{
@@ -71,6 +70,8 @@ struct Report {
     frames: u32,
     page_size: u32,
     copy_gb_per_s: Option<f64>,
+    /// Why the timings cannot be true (then `rows` is empty): see [`implausible`].
+    unreliable: Option<String>,
     rows: Vec<Row>,
 }
 
@@ -119,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
         copy.map(|g| format!("{g:.1} GB/s"))
             .unwrap_or_else(|| "n/a".into())
     );
-    let scene = crate::scene::load(args.input.as_deref(), ColorMode::Rgb, args.points)?;
+    let scene = crate::scene::load(args.input.as_deref(), None, args.points)?;
     let views: [(&'static str, Camera); 2] = [
         ("overview", Camera::overview(&scene.bounds, 60.0)),
         ("closeup", Camera::closeup(&scene.bounds, 60.0)),
@@ -183,8 +184,20 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    print_tables(&rows, &variants, &orders, &encodings);
-    print_summary(&rows, copy);
+    let unreliable = implausible(&rows, copy);
+    match &unreliable {
+        Some(why) => {
+            println!(
+                "timings unreliable on {}: {why}. This driver's GPU timestamps do not measure the work; no results are reported.",
+                ctx.describe()
+            );
+            rows.clear();
+        }
+        None => {
+            print_tables(&rows, &variants, &orders, &encodings);
+            print_summary(&rows, copy);
+        }
+    }
     if let Some(path) = &args.json {
         let report = Report {
             adapter: ctx.describe(),
@@ -195,12 +208,48 @@ pub fn run(args: Args) -> Result<()> {
             frames: args.frames,
             page_size: args.page_size,
             copy_gb_per_s: copy,
+            unreliable,
             rows,
         };
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// Why timings cannot be true, if they cannot: a time that is not positive, or a rasterizer
+/// reading its points faster than the copy kernel moves memory (more than 100 % of copy).
+fn implausible(rows: &[Row], copy: Option<f64>) -> Option<String> {
+    let name = |r: &Row| format!("{} ({} {} {})", r.variant, r.encoding, r.order, r.view);
+    if let Some(c) = copy.filter(|c| !(c.is_finite() && *c > 0.0)) {
+        return Some(format!("the copy kernel timed at {c} GB/s"));
+    }
+    let positive = |ms: f64| ms.is_finite() && ms > 0.0;
+    if let Some(r) = rows
+        .iter()
+        .find(|r| !positive(r.median_ms) || !positive(r.min_ms))
+    {
+        return Some(format!(
+            "{} timed at {} ms (median), {} ms (min)",
+            name(r),
+            r.median_ms,
+            r.min_ms
+        ));
+    }
+    let fastest = rows
+        .iter()
+        .filter_map(|r| Some((r.fraction_of_copy?, r)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    match (fastest, copy) {
+        (Some((f, r)), Some(c)) if f > 1.0 => Some(format!(
+            "{} would read its points at {:.1} GB/s, {:.0} % of the {:.1} GB/s the copy kernel reaches",
+            name(r),
+            r.gb_per_s,
+            f * 100.0,
+            c
+        )),
+        _ => None,
+    }
 }
 
 fn print_tables(
@@ -265,5 +314,34 @@ fn print_summary(rows: &[Row], copy: Option<f64>) {
                 h.median_ms / c.median_ms
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(median_ms: f64, fraction_of_copy: f64) -> Row {
+        Row {
+            variant: "early-z",
+            order: "original",
+            encoding: "full16",
+            view: "overview",
+            median_ms,
+            min_ms: median_ms,
+            wall_ms: 1.0,
+            points_per_s: 1e9,
+            gb_per_s: fraction_of_copy * 100.0,
+            fraction_of_copy: Some(fraction_of_copy),
+        }
+    }
+
+    #[test]
+    fn faster_than_copy_or_timeless_is_implausible() {
+        assert_eq!(implausible(&[row(1.0, 0.8)], Some(100.0)), None);
+        let why = implausible(&[row(1.0, 0.8), row(0.01, 96.2)], Some(100.0)).expect("96×");
+        assert!(why.contains("9620 %"), "{why}");
+        assert!(implausible(&[row(0.0, 0.5)], Some(100.0)).is_some());
+        assert!(implausible(&[row(1.0, 0.5)], Some(f64::INFINITY)).is_some());
     }
 }

@@ -33,6 +33,12 @@ pub struct Args {
 pub const BATCH: usize = 1 << 20;
 
 pub fn run(args: Args) -> Result<()> {
+    if !crate::load::is_store_path(&args.output) {
+        bail!(
+            "output {} must end in .pointlet: convert writes a pointlet store (to write LAS/LAZ, convert to a store, then `pointlet export` it)",
+            args.output.display()
+        );
+    }
     let files = pointlet_io::expand_inputs(&args.inputs)?;
     if files.is_empty() {
         bail!("no supported point files among the inputs");
@@ -40,7 +46,7 @@ pub fn run(args: Args) -> Result<()> {
     refuse_overwriting_inputs(&files, &args.output)?;
     let mut readers = Vec::with_capacity(files.len());
     for f in &files {
-        readers.push(pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?);
+        readers.push(pointlet_io::open(f)?);
     }
     let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
     let meta = pointlet_store::merge_meta(&metas)
@@ -62,13 +68,13 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     let secs = started.elapsed().as_secs_f64();
     eprintln!(
-        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({:.1} M points/s)",
+        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({})",
         args.output.display(),
         summary.points,
         summary.pointlets,
         summary.pointlet_size,
         secs,
-        summary.points as f64 / secs.max(1e-9) / 1e6
+        crate::progress::points_per_second(summary.points as f64 / secs.max(1e-9))
     );
     Ok(())
 }
@@ -111,15 +117,12 @@ pub fn build_store(
     sources: Vec<String>,
     readers: Vec<Box<dyn pointlet_io::PointReader>>,
 ) -> Result<pointlet_store::BuildSummary> {
-    let mut builder = StoreBuilder::create(output, config, meta, sources)
-        .with_context(|| format!("creating {}", output.display()))?;
+    let mut builder = StoreBuilder::create(output, config, meta, sources)?;
     let (tx, rx) = sync_channel::<Result<PointBatch>>(2);
     let decoder = std::thread::spawn(move || {
         for mut r in readers {
             loop {
-                let batch = r
-                    .read_batch(BATCH)
-                    .with_context(|| format!("reading {}", r.path().display()));
+                let batch = r.read_batch(BATCH).map_err(anyhow::Error::from);
                 match batch {
                     Ok(Some(b)) => {
                         if tx.send(Ok(b)).is_err() {

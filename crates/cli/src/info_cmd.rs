@@ -21,8 +21,7 @@ pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
         store_info(&args)?
     } else {
-        let reader = pointlet_io::open(&args.input)
-            .with_context(|| format!("opening {}", args.input.display()))?;
+        let reader = pointlet_io::open(&args.input)?;
         file_info(reader.meta())
     };
     if args.json {
@@ -34,12 +33,9 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn store_info(args: &Args) -> Result<Value> {
-    let store = pointlet_store::Store::open(&args.input)
-        .with_context(|| format!("opening store {}", args.input.display()))?;
+    let store = pointlet_store::Store::open(&args.input)?;
     if args.verify {
-        store
-            .verify()
-            .with_context(|| format!("verifying {}", args.input.display()))?;
+        store.verify().context("verifying")?;
     }
     let h = store.header();
     let pl = store.pointlets();
@@ -62,9 +58,9 @@ fn store_info(args: &Args) -> Result<Value> {
             "max": diag.iter().cloned().fold(0.0, f64::max),
             "mean": mean(&diag),
         },
-        "bounds": bounds_json(&h.bounds),
+        "bounds": bounds_json(&h.bounds, Some(h.quantization.scale)),
         "scale": h.quantization.scale,
-        "offset": h.quantization.offset,
+        "offset": h.quantization.offset.map(|o| o + 0.0),
         "attributes": attributes(&h.layout),
         "las_point_format": h.las_point_format,
         "crs": crs(&h.vlrs),
@@ -77,17 +73,32 @@ fn file_info(m: &SourceMeta) -> Value {
     json!({
         "format": m.format,
         "points": m.point_count,
-        "bounds": bounds_json(&m.bounds),
+        "bounds": bounds_json(&m.bounds, m.quantization.map(|q| q.scale)),
         "scale": m.quantization.map(|q| q.scale),
-        "offset": m.quantization.map(|q| q.offset),
+        "offset": m.quantization.map(|q| q.offset.map(|o| o + 0.0)),
         "attributes": attributes(&m.layout),
         "las_point_format": m.las_point_format,
         "crs": crs(&m.vlrs),
     })
 }
 
-fn bounds_json(b: &Aabb) -> Value {
-    json!({ "min": b.min, "max": b.max })
+/// Bounds to the data's precision (its quantization `scale`), as the header's doubles would
+/// print 848899.7000000001.
+fn bounds_json(b: &Aabb, scale: Option<[f64; 3]>) -> Value {
+    let round = |p: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|k| round_to_step(p[k], scale.map_or(0.0, |s| s[k])))
+    };
+    json!({ "min": round(b.min), "max": round(b.max) })
+}
+
+/// `v` with the decimals of `step` (0.01 → 2; none for a step ≤ 0), never -0.0 (adding 0.0
+/// turns it into 0.0).
+fn round_to_step(v: f64, step: f64) -> f64 {
+    if !(step > 0.0 && v.is_finite()) {
+        return v + 0.0;
+    }
+    let factor = 10f64.powi((-step.log10()).ceil().clamp(0.0, 15.0) as i32);
+    (v * factor).round() / factor + 0.0
 }
 
 /// Attribute names in the order the store keeps its streams.
