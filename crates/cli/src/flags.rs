@@ -2,6 +2,7 @@
 //! ignored: which flags each command's inputs and modes use, in one place. A flag counts as
 //! given when it was typed (clap's value source), whatever its value.
 
+use crate::view_args::CameraArgs;
 use crate::Command;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
@@ -54,10 +55,12 @@ fn input_kind(input: Option<&Path>) -> &'static str {
 pub fn check(command: &Command, given: &Given) -> Result<(), String> {
     match command {
         Command::Render(a) => {
+            camera(given, &a.camera)?;
             let store_only = [&VIRTUAL[..], &["max_frames", "no_converge"]].concat();
             drawing(given, a.input.as_deref(), a.draw.raster, &store_only)
         }
         Command::View(a) => {
+            camera(given, &a.camera)?;
             let store_only = ["vram_budget", "ram_budget", "bucket", "converge_timeout"];
             drawing(given, a.input.as_deref(), a.draw.raster, &store_only)
         }
@@ -110,6 +113,18 @@ fn is_las_path(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
+}
+
+/// A camera placed by --eye/--target is not one of the predefined views.
+fn camera(given: &Given, camera: &CameraArgs) -> Result<(), String> {
+    if camera.eye.is_some() || camera.target.is_some() {
+        given.refuse(
+            &["view"],
+            "the predefined views",
+            "a camera placed by --eye/--target",
+        )?;
+    }
+    Ok(())
 }
 
 /// `render` and `view`: stores and in-memory inputs use different flags.

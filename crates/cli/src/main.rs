@@ -120,7 +120,7 @@ fn chain(e: &anyhow::Error) -> String {
     let mut line = String::new();
     for cause in e.chain() {
         let message = cause.to_string();
-        if line.ends_with(&message) {
+        if line.ends_with(&format!(": {message}")) {
             continue;
         }
         if !line.is_empty() {

@@ -50,7 +50,7 @@ mod tests {
     #[test]
     fn rates_read_as_people_write_them() {
         let f = super::points_per_second;
-        assert_eq!(f(1_633_913.5211), "1.63 M points/s");
+        assert_eq!(f(1_633_913.521_1), "1.63 M points/s");
         assert_eq!(f(25_400.0), "25.4 k points/s");
         assert_eq!(f(999.6), "1000 points/s");
         assert_eq!(f(3.2e9), "3.20 G points/s");

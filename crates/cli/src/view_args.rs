@@ -19,8 +19,14 @@ pub struct CameraArgs {
     /// Point looked at, `x,y,z`.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub target: Option<[f64; 3]>,
-    /// Up direction, `x,y,z` (data is z-up by default).
-    #[arg(long, value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    /// With --eye/--target: up direction, `x,y,z` (data is z-up by default).
+    #[arg(
+        long,
+        value_parser = parse_vec3,
+        default_value = "0,0,1",
+        allow_hyphen_values = true,
+        requires = "eye"
+    )]
     pub up: [f64; 3],
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]

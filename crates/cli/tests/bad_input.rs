@@ -143,7 +143,7 @@ fn output_that_is_an_input_is_refused() {
     let copy = dir.path().join("in.las");
     std::fs::copy(data("simple.las"), &copy).expect("copy");
     let before = std::fs::read(&copy).expect("read");
-    fails(&["convert", s(&copy), "-o", s(&copy)], &["input"]);
+    fails(&["convert", s(&copy), "-o", s(&copy)], &["in.las"]);
     assert_eq!(
         std::fs::read(&copy).expect("read"),
         before,

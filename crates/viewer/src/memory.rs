@@ -248,6 +248,20 @@ mod tests {
     }
 
     #[test]
+    fn the_default_colouring_is_chosen_on_the_data() {
+        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata");
+        for (file, mode) in [
+            ("simple.las", ColorMode::Rgb),
+            ("test1_4.las", ColorMode::Intensity), // no RGB
+            ("plane.laz", ColorMode::Intensity),   // RGB all zero
+        ] {
+            let d = MemoryData::load(Source::File(&testdata.join(file)), VertexOrder::Original)
+                .expect("test data");
+            assert_eq!(d.default_color.mode, mode, "{file}");
+        }
+    }
+
+    #[test]
     fn missing_file_is_an_error_naming_it() {
         let err = MemoryData::load(
             Source::File(Path::new("/nonexistent/x.laz")),
