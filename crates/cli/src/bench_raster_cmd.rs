@@ -91,6 +91,8 @@ pub fn run(args: Args) -> Result<()> {
             ctx.describe()
         );
     }
+    // Read before the copy kernel is timed: a bad input fails at once.
+    let scene = crate::scene::load(args.input.as_deref(), None, args.points)?;
     let variants: Vec<RasterVariant> = if args.variants.is_empty() {
         RasterVariant::ALL.to_vec()
     } else {
@@ -123,7 +125,6 @@ pub fn run(args: Args) -> Result<()> {
         copy.map(|g| format!("{g:.1} GB/s"))
             .unwrap_or_else(|| "n/a".into())
     );
-    let scene = crate::scene::load(args.input.as_deref(), None, args.points)?;
     let views: [(&'static str, Camera); 2] = [
         ("overview", Camera::overview(&scene.bounds, 60.0)),
         ("closeup", Camera::closeup(&scene.bounds, 60.0)),

@@ -1,7 +1,7 @@
 //! `pointlet bench-read`: decode inputs and do nothing else — the baseline `convert` is
 //! measured against (conversion should cost at most 2× decoding).
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -14,6 +14,12 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let files = pointlet_io::expand_inputs(&args.inputs)?;
+    if files.is_empty() {
+        bail!(
+            "no supported point files in {}",
+            crate::convert_cmd::list_files(&args.inputs)
+        );
+    }
     let started = Instant::now();
     let mut points = 0u64;
     // Touch the decoded values so the work cannot be skipped.

@@ -41,7 +41,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let files = pointlet_io::expand_inputs(&args.inputs)?;
     if files.is_empty() {
-        bail!("no supported point files among the inputs");
+        bail!("no supported point files in {}", list_files(&args.inputs));
     }
     refuse_overwriting_inputs(&files, &args.output)?;
     let mut readers = Vec::with_capacity(files.len());
@@ -153,7 +153,7 @@ pub fn build_store(
 }
 
 /// Names for messages: all files when few, else the first ones and how many more.
-fn list_files(files: &[PathBuf]) -> String {
+pub fn list_files(files: &[PathBuf]) -> String {
     let shown: Vec<String> = files
         .iter()
         .take(3)
