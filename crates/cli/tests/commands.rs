@@ -119,7 +119,7 @@ fn data_without_colours_is_drawn_by_its_intensity_or_elevation() {
             );
             assert!(lit_pixels(&png) > 100, "{input:?} drawn black");
         }
-        let png = dir.path().join("bench.json");
+        let json = dir.path().join("bench.json");
         let err = ok_stderr(&[
             "bench",
             s(&store),
@@ -132,7 +132,7 @@ fn data_without_colours_is_drawn_by_its_intensity_or_elevation() {
             "--height",
             "48",
             "--json",
-            s(&png),
+            s(&json),
         ]);
         assert!(err.contains("colouring by intensity"), "bench: {err}");
     }
@@ -242,10 +242,11 @@ fn flags_that_do_not_apply_are_refused() {
         ["--converge-timeout", "3"],
     ] {
         usage_fails(
-            &["view", &file, flag[0], flag[1]],
+            &["view", &file, "--frames", "1", flag[0], flag[1]],
             &[flag[0], "stores only"],
         );
     }
+    usage_fails(&["view", &store, "--converge-timeout", "3"], &["--frames"]);
     usage_fails(
         &["render", &file, "-o", png, "--demo-points", "1000"],
         &["--demo-points", "the demo scene"],
