@@ -66,13 +66,15 @@ fn default_sigpipe() {
     }
 }
 
-/// Mesa's Vulkan device-select layer asks the display server (Wayland, X11) which GPU drives
-/// the screen, and libwayland prints `error: XDG_RUNTIME_DIR is invalid or not set` when there
-/// is none. The adapter is chosen here (`--adapter`, else the best), so the layer is turned off
-/// unless the user configured it.
+/// Mesa's Vulkan device-select layer asks the Wayland server which GPU drives the screen, and
+/// without a session runtime folder (headless machines) libwayland prints `error:
+/// XDG_RUNTIME_DIR is invalid or not set` instead. No Wayland server can be reached then, so
+/// the layer is turned off there, unless the user configured it.
 fn quiet_device_select() {
+    let runtime_dir = std::env::var_os("XDG_RUNTIME_DIR");
+    let wayland_reachable = runtime_dir.is_some_and(|d| std::path::Path::new(&d).is_absolute());
     let configured = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"];
-    if configured.iter().all(|v| std::env::var_os(v).is_none()) {
+    if !wayland_reachable && configured.iter().all(|v| std::env::var_os(v).is_none()) {
         std::env::set_var("NODEVICE_SELECT", "1");
     }
 }
