@@ -115,8 +115,15 @@ pub fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    // Checked before flying, not minutes later when the plot is written.
+    if let Some(p) = &args.plot {
+        plot_format(p)?;
+    }
+    let store = pointlet_store::Store::open(&args.store)?;
+    let color = crate::scene::store_color(args.draw.color, &store)?;
+    drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;
-    let config = args.virtual_args.config(&args.draw);
+    let config = args.virtual_args.config(&args.draw, color);
     let mut scene =
         VirtualScene::open(&ctx, &args.store, config.clone(), (args.width, args.height))
             .with_context(|| format!("opening {}", args.store.display()))?;
@@ -362,16 +369,28 @@ fn write_plot(path: &Path, rows: &[FrameRow]) -> Result<()> {
         series("screen (GPU)", 4, &|r| r.screen_ms),
     ];
     let title = "frame time along the path";
+    let bytes = match plot_format(path)? {
+        PlotFormat::Svg => pointlet_report::plot_svg(title, &all, "frame", "ms").into_bytes(),
+        PlotFormat::Png => pointlet_report::plot_png(title, &all, "frame", "ms", 1600, 900)?,
+    };
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+enum PlotFormat {
+    Svg,
+    Png,
+}
+
+fn plot_format(path: &Path) -> Result<PlotFormat> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    let bytes = match ext.as_deref() {
-        Some("svg") => pointlet_report::plot_svg(title, &all, "frame", "ms").into_bytes(),
-        Some("png") => pointlet_report::plot_png(title, &all, "frame", "ms", 1600, 900)?,
+    match ext.as_deref() {
+        Some("svg") => Ok(PlotFormat::Svg),
+        Some("png") => Ok(PlotFormat::Png),
         _ => bail!("plot {} must end in .svg or .png", path.display()),
-    };
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+    }
 }
 
 /// Renders frames of a still `camera` until `done` says so; the last report.

@@ -4,7 +4,6 @@
 use crate::render_cmd::reorder;
 use crate::view_args::{parse_encoding, parse_order, parse_variant};
 use anyhow::{bail, Context, Result};
-use pointlet_core::color::ColorMode;
 use pointlet_core::order::VertexOrder;
 use pointlet_core::Camera;
 use pointlet_gpu::{
@@ -57,7 +56,10 @@ struct Row {
     /// Median wall-clock time of the whole frame (submit to completion): a sanity bound.
     wall_ms: f64,
     points_per_s: f64,
+    /// Nominal: every byte of every point per geometry pass (early-z reads fewer colours).
     gb_per_s: f64,
+    /// The positions alone, which every rasterizer reads: this cannot exceed the copy kernel.
+    position_gb_per_s: f64,
     fraction_of_copy: Option<f64>,
 }
 
@@ -71,6 +73,8 @@ struct Report {
     frames: u32,
     page_size: u32,
     copy_gb_per_s: Option<f64>,
+    /// Why the timings cannot be true (then `rows` is empty): see [`implausible`].
+    unreliable: Option<String>,
     rows: Vec<Row>,
 }
 
@@ -87,6 +91,8 @@ pub fn run(args: Args) -> Result<()> {
             ctx.describe()
         );
     }
+    // Read before the copy kernel is timed: a bad input fails at once.
+    let scene = crate::scene::load(args.input.as_deref(), None, args.points)?;
     let variants: Vec<RasterVariant> = if args.variants.is_empty() {
         RasterVariant::ALL.to_vec()
     } else {
@@ -119,7 +125,6 @@ pub fn run(args: Args) -> Result<()> {
         copy.map(|g| format!("{g:.1} GB/s"))
             .unwrap_or_else(|| "n/a".into())
     );
-    let scene = crate::scene::load(args.input.as_deref(), ColorMode::Rgb, args.points)?;
     let views: [(&'static str, Camera); 2] = [
         ("overview", Camera::overview(&scene.bounds, 60.0)),
         ("closeup", Camera::closeup(&scene.bounds, 60.0)),
@@ -169,6 +174,8 @@ pub fn run(args: Args) -> Result<()> {
                         wall_ms: median(walls),
                         points_per_s: points as f64 / (med * 1e-3),
                         gb_per_s: gbs,
+                        position_gb_per_s: (cloud.points * encoding.position_bytes()) as f64
+                            / (med * 1e6),
                         fraction_of_copy: copy.map(|c| gbs / c),
                     });
                     eprintln!(
@@ -183,8 +190,20 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    print_tables(&rows, &variants, &orders, &encodings);
-    print_summary(&rows, copy);
+    let unreliable = implausible(&rows, copy);
+    match &unreliable {
+        Some(why) => {
+            println!(
+                "timings unreliable on {}: {why}. This driver's GPU timestamps do not measure the work; no results are reported.",
+                ctx.describe()
+            );
+            rows.clear();
+        }
+        None => {
+            print_tables(&rows, &variants, &orders, &encodings);
+            print_summary(&rows, copy);
+        }
+    }
     if let Some(path) = &args.json {
         let report = Report {
             adapter: ctx.describe(),
@@ -195,12 +214,47 @@ pub fn run(args: Args) -> Result<()> {
             frames: args.frames,
             page_size: args.page_size,
             copy_gb_per_s: copy,
+            unreliable,
             rows,
         };
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// Why timings cannot be true, if they cannot: a time that is not positive, or a rasterizer
+/// reading the points' positions alone faster than the copy kernel moves memory.
+fn implausible(rows: &[Row], copy: Option<f64>) -> Option<String> {
+    let name = |r: &Row| format!("{} ({} {} {})", r.variant, r.encoding, r.order, r.view);
+    if let Some(c) = copy.filter(|c| !(c.is_finite() && *c > 0.0)) {
+        return Some(format!("the copy kernel timed at {c} GB/s"));
+    }
+    let positive = |ms: f64| ms.is_finite() && ms > 0.0;
+    if let Some(r) = rows
+        .iter()
+        .find(|r| !positive(r.median_ms) || !positive(r.min_ms))
+    {
+        return Some(format!(
+            "{} timed at {} ms (median), {} ms (min)",
+            name(r),
+            r.median_ms,
+            r.min_ms
+        ));
+    }
+    let fastest = rows
+        .iter()
+        .max_by(|a, b| a.position_gb_per_s.total_cmp(&b.position_gb_per_s))?;
+    let copy = copy?;
+    (fastest.position_gb_per_s > copy).then(|| {
+        format!(
+            "{} would read the positions alone at {:.1} GB/s, {:.0} % of the {:.1} GB/s the copy kernel reaches",
+            name(fastest),
+            fastest.position_gb_per_s,
+            fastest.position_gb_per_s / copy * 100.0,
+            copy
+        )
+    })
 }
 
 fn print_tables(
@@ -265,5 +319,36 @@ fn print_summary(rows: &[Row], copy: Option<f64>) {
                 h.median_ms / c.median_ms
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(median_ms: f64, position_gb_per_s: f64) -> Row {
+        Row {
+            variant: "early-z",
+            order: "original",
+            encoding: "full16",
+            view: "overview",
+            median_ms,
+            min_ms: median_ms,
+            wall_ms: 1.0,
+            points_per_s: 1e9,
+            gb_per_s: position_gb_per_s * 1.25,
+            position_gb_per_s,
+            fraction_of_copy: Some(position_gb_per_s * 1.25 / 100.0),
+        }
+    }
+
+    #[test]
+    fn faster_than_copy_or_timeless_is_implausible() {
+        // Nominal bytes may pass the copy kernel's figure (colours read by winners only).
+        assert_eq!(implausible(&[row(1.0, 95.0)], Some(100.0)), None);
+        let why = implausible(&[row(1.0, 80.0), row(0.01, 9620.0)], Some(100.0)).expect("96×");
+        assert!(why.contains("9620 %"), "{why}");
+        assert!(implausible(&[row(0.0, 50.0)], Some(100.0)).is_some());
+        assert!(implausible(&[row(1.0, 50.0)], Some(f64::INFINITY)).is_some());
     }
 }

@@ -1,7 +1,7 @@
 //! `pointlet bench-read`: decode inputs and do nothing else — the baseline `convert` is
 //! measured against (conversion should cost at most 2× decoding).
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -14,16 +14,19 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let files = pointlet_io::expand_inputs(&args.inputs)?;
+    if files.is_empty() {
+        bail!(
+            "no supported point files in {}",
+            crate::convert_cmd::list_files(&args.inputs)
+        );
+    }
     let started = Instant::now();
     let mut points = 0u64;
     // Touch the decoded values so the work cannot be skipped.
     let mut checksum = 0f64;
     for f in &files {
-        let mut r = pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?;
-        while let Some(b) = r
-            .read_batch(crate::convert_cmd::BATCH)
-            .with_context(|| format!("reading {}", f.display()))?
-        {
+        let mut r = pointlet_io::open(f)?;
+        while let Some(b) = r.read_batch(crate::convert_cmd::BATCH)? {
             points += b.len() as u64;
             if let Some(p) = b.xyz.last() {
                 checksum += p[0];
@@ -32,8 +35,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     let secs = started.elapsed().as_secs_f64();
     println!(
-        "decoded {points} points in {secs:.2} s: {:.1} M points/s (checksum {checksum:.3})",
-        points as f64 / secs.max(1e-9) / 1e6
+        "decoded {points} points in {secs:.2} s: {} (checksum {checksum:.3})",
+        crate::progress::points_per_second(points as f64 / secs.max(1e-9))
     );
     Ok(())
 }

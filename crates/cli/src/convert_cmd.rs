@@ -33,14 +33,20 @@ pub struct Args {
 pub const BATCH: usize = 1 << 20;
 
 pub fn run(args: Args) -> Result<()> {
+    if !crate::load::is_store_path(&args.output) {
+        bail!(
+            "output {} must end in .pointlet: convert writes a pointlet store (to write LAS/LAZ, convert to a store, then `pointlet export` it)",
+            args.output.display()
+        );
+    }
     let files = pointlet_io::expand_inputs(&args.inputs)?;
     if files.is_empty() {
-        bail!("no supported point files among the inputs");
+        bail!("no supported point files in {}", list_files(&args.inputs));
     }
     refuse_overwriting_inputs(&files, &args.output)?;
     let mut readers = Vec::with_capacity(files.len());
     for f in &files {
-        readers.push(pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?);
+        readers.push(pointlet_io::open(f)?);
     }
     let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
@@ -63,13 +69,13 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     let secs = started.elapsed().as_secs_f64();
     eprintln!(
-        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({:.1} M points/s)",
+        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({})",
         args.output.display(),
         summary.points,
         summary.pointlets,
         summary.pointlet_size,
         secs,
-        summary.points as f64 / secs.max(1e-9) / 1e6
+        crate::progress::points_per_second(summary.points as f64 / secs.max(1e-9))
     );
     Ok(())
 }
@@ -112,15 +118,12 @@ pub fn build_store(
     sources: Vec<String>,
     readers: Vec<Box<dyn pointlet_io::PointReader>>,
 ) -> Result<pointlet_store::BuildSummary> {
-    let mut builder = StoreBuilder::create(output, config, meta, sources)
-        .with_context(|| format!("creating {}", output.display()))?;
+    let mut builder = StoreBuilder::create(output, config, meta, sources)?;
     let (tx, rx) = sync_channel::<Result<PointBatch>>(2);
     let decoder = std::thread::spawn(move || {
         for mut r in readers {
             loop {
-                let batch = r
-                    .read_batch(BATCH)
-                    .with_context(|| format!("reading {}", r.path().display()));
+                let batch = r.read_batch(BATCH).map_err(anyhow::Error::from);
                 match batch {
                     Ok(Some(b)) => {
                         if tx.send(Ok(b)).is_err() {
@@ -151,7 +154,7 @@ pub fn build_store(
 }
 
 /// Names for messages: all files when few, else the first ones and how many more.
-fn list_files(files: &[PathBuf]) -> String {
+pub fn list_files(files: &[PathBuf]) -> String {
     let shown: Vec<String> = files
         .iter()
         .take(3)

@@ -47,10 +47,12 @@ pub fn run(args: Args) -> Result<()> {
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     if ext != "las" && ext != "laz" {
-        bail!("output {} must end in .las or .laz", args.output.display());
+        bail!(
+            "output {} must end in .las or .laz: export writes LAS/LAZ (a store is written by convert)",
+            args.output.display()
+        );
     }
-    let store = pointlet_store::Store::open(&args.store)
-        .with_context(|| format!("opening store {}", args.store.display()))?;
+    let store = pointlet_store::Store::open(&args.store)?;
     let h = store.header();
     let mut writer = LasWriter::create(
         &args.output,
@@ -62,8 +64,7 @@ pub fn run(args: Args) -> Result<()> {
             fields: h.las.clone().unwrap_or_default(),
             compress: ext == "laz",
         },
-    )
-    .with_context(|| format!("creating {}", args.output.display()))?;
+    )?;
     let bar = crate::progress::bar(h.points, "exporting");
     let mut written = 0u64;
     for (i, p) in store.pointlets().iter().enumerate() {
@@ -75,15 +76,13 @@ pub fn run(args: Args) -> Result<()> {
         }
         let batch = store
             .read_pointlet(i)
-            .with_context(|| format!("reading pointlet {i} of {}", args.store.display()))?;
+            .with_context(|| format!("reading pointlet {i}"))?;
         let batch = match &args.bbox {
             Some(b) => filter(&batch, b),
             None => batch,
         };
         written += batch.len() as u64;
-        writer
-            .write_batch(&batch)
-            .with_context(|| format!("writing {}", args.output.display()))?;
+        writer.write_batch(&batch)?;
     }
     bar.finish_and_clear();
     if written == 0 {
@@ -91,9 +90,7 @@ pub fn run(args: Args) -> Result<()> {
         drop(writer);
         bail!("no points of {} lie inside the bbox", args.store.display());
     }
-    writer
-        .finish()
-        .with_context(|| format!("finishing {}", args.output.display()))?;
+    writer.finish()?;
     eprintln!("exported {written} points to {}", args.output.display());
     Ok(())
 }

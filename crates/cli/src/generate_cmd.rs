@@ -102,20 +102,15 @@ pub fn run(args: Args) -> Result<()> {
                     fields: meta.las.clone().unwrap_or_default(),
                     compress: ext == "laz",
                 },
-            )
-            .with_context(|| format!("creating {}", args.output.display()))?;
+            )?;
             let bar = crate::progress::bar(args.points, "generating");
             let mut reader = reader();
             while let Some(batch) = reader.read_batch(1 << 20)? {
-                writer
-                    .write_batch(&batch)
-                    .with_context(|| format!("writing {}", args.output.display()))?;
+                writer.write_batch(&batch)?;
                 bar.inc(batch.len() as u64);
             }
             bar.finish_and_clear();
-            writer
-                .finish()
-                .with_context(|| format!("finishing {}", args.output.display()))?;
+            writer.finish()?;
         }
         "pointlet" => {
             let config =

@@ -26,8 +26,7 @@ pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
         store_info(&args)?
     } else {
-        let mut reader = pointlet_io::open(&args.input)
-            .with_context(|| format!("opening {}", args.input.display()))?;
+        let mut reader = pointlet_io::open(&args.input)?;
         let meta = reader.meta().clone();
         // Only LAS bounds are a claim; PLY and text readers measured theirs already.
         let small_las = meta.las.is_some() && meta.point_count <= READ_POINTS_UP_TO;
@@ -53,12 +52,9 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn store_info(args: &Args) -> Result<Value> {
-    let store = pointlet_store::Store::open(&args.input)
-        .with_context(|| format!("opening store {}", args.input.display()))?;
+    let store = pointlet_store::Store::open(&args.input)?;
     if args.verify {
-        store
-            .verify()
-            .with_context(|| format!("verifying {}", args.input.display()))?;
+        store.verify().context("verifying")?;
     }
     let h = store.header();
     let pl = store.pointlets();
@@ -81,9 +77,9 @@ fn store_info(args: &Args) -> Result<Value> {
             "max": diag.iter().cloned().fold(0.0, f64::max),
             "mean": mean(&diag),
         },
-        "bounds": bounds_json(&h.bounds),
+        "bounds": bounds_json(&h.bounds, Some(h.quantization.scale)),
         "scale": h.quantization.scale,
-        "offset": h.quantization.offset,
+        "offset": h.quantization.offset.map(|o| o + 0.0),
         "attributes": attributes(&h.layout),
         "las_point_format": h.las_point_format,
         "crs": crs(&h.vlrs),
@@ -107,9 +103,10 @@ fn read_bounds(reader: &mut dyn pointlet_io::PointReader) -> Result<Aabb> {
 /// points' own when they were read (PLY and text bounds come from reading the points anyway).
 fn file_info(m: &SourceMeta, points_bounds: Option<Aabb>) -> Value {
     let claimed = m.las.is_some();
+    let scale = m.quantization.map(|q| q.scale);
     let bounds = match (claimed, points_bounds) {
-        (_, Some(b)) => bounds_json(&b),
-        (false, None) => bounds_json(&m.bounds),
+        (_, Some(b)) => bounds_json(&b, scale),
+        (false, None) => bounds_json(&m.bounds, scale),
         (true, None) => Value::Null,
     };
     // Within half a quantization step, the header says what the points say.
@@ -126,12 +123,12 @@ fn file_info(m: &SourceMeta, points_bounds: Option<Aabb>) -> Value {
         "format": m.format,
         "points": m.point_count,
         "bounds": bounds,
-        "header_bounds": if claimed { bounds_json(&m.bounds) } else { Value::Null },
+        "header_bounds": if claimed { bounds_json(&m.bounds, scale) } else { Value::Null },
         "header_bounds_agree": agree,
         "file_source_id": m.las.as_ref().map(|l| l.file_source_id),
         "gps_time_type": gps_time_type(m.las.as_ref(), &m.layout),
         "scale": m.quantization.map(|q| q.scale),
-        "offset": m.quantization.map(|q| q.offset),
+        "offset": m.quantization.map(|q| q.offset.map(|o| o + 0.0)),
         "attributes": attributes(&m.layout),
         "las_point_format": m.las_point_format,
         "crs": crs(&m.vlrs),
@@ -150,8 +147,23 @@ fn gps_time_type(las: Option<&LasFields>, layout: &PointLayout) -> Option<&'stat
     )
 }
 
-fn bounds_json(b: &Aabb) -> Value {
-    json!({ "min": b.min, "max": b.max })
+/// Bounds to the data's precision (its quantization `scale`), as the header's doubles would
+/// print 848899.7000000001.
+fn bounds_json(b: &Aabb, scale: Option<[f64; 3]>) -> Value {
+    let round = |p: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|k| round_to_step(p[k], scale.map_or(0.0, |s| s[k])))
+    };
+    json!({ "min": round(b.min), "max": round(b.max) })
+}
+
+/// `v` with the decimals of `step` (0.01 → 2; none for a step ≤ 0), never -0.0 (adding 0.0
+/// turns it into 0.0).
+fn round_to_step(v: f64, step: f64) -> f64 {
+    if !(step > 0.0 && v.is_finite()) {
+        return v + 0.0;
+    }
+    let factor = 10f64.powi((-step.log10()).ceil().clamp(0.0, 15.0) as i32);
+    (v * factor).round() / factor + 0.0
 }
 
 /// Attribute names in the order the store keeps its streams.

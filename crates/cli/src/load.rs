@@ -17,14 +17,13 @@ pub fn load_positions(path: &Path) -> Result<(Vec<[f64; 3]>, Aabb)> {
     let mut pts = Vec::new();
     let mut bounds = Aabb::EMPTY;
     if is_store_path(path) {
-        let store = pointlet_store::Store::open(path)
-            .with_context(|| format!("opening store {}", path.display()))?;
+        let store = pointlet_store::Store::open(path)?;
         let q = store.header().quantization;
         pts.reserve(store.header().points as usize);
         for (i, p) in store.pointlets().iter().enumerate() {
             for raw in store
                 .read_positions(i, 0..p.count)
-                .with_context(|| format!("reading pointlet {i} of {}", path.display()))?
+                .with_context(|| format!("reading pointlet {i}"))?
             {
                 let v = q.dequantize(raw);
                 bounds.grow(v);
@@ -32,12 +31,8 @@ pub fn load_positions(path: &Path) -> Result<(Vec<[f64; 3]>, Aabb)> {
             }
         }
     } else {
-        let mut r =
-            pointlet_io::open(path).with_context(|| format!("opening {}", path.display()))?;
-        while let Some(b) = r
-            .read_batch(1 << 20)
-            .with_context(|| format!("reading {}", path.display()))?
-        {
+        let mut r = pointlet_io::open(path)?;
+        while let Some(b) = r.read_batch(1 << 20)? {
             for p in &b.xyz {
                 bounds.grow(*p);
             }

@@ -6,6 +6,7 @@ mod bench_raster_cmd;
 mod bench_read_cmd;
 mod convert_cmd;
 mod export_cmd;
+mod flags;
 mod generate_cmd;
 mod image_out;
 mod info_cmd;
@@ -17,7 +18,7 @@ mod scene;
 mod view_args;
 mod view_cmd;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -65,9 +66,35 @@ fn default_sigpipe() {
     }
 }
 
+/// Mesa's Vulkan device-select layer asks the Wayland server which GPU drives the screen, and
+/// without a session runtime folder (headless machines) libwayland prints `error:
+/// XDG_RUNTIME_DIR is invalid or not set` instead. No Wayland server can be reached then, so
+/// the layer is turned off there, unless the user configured it.
+fn quiet_device_select() {
+    let runtime_dir = std::env::var_os("XDG_RUNTIME_DIR");
+    let wayland_reachable = runtime_dir.is_some_and(|d| std::path::Path::new(&d).is_absolute());
+    let configured = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"];
+    if !wayland_reachable && configured.iter().all(|v| std::env::var_os(v).is_none()) {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
 fn main() -> ExitCode {
     default_sigpipe();
-    let cli = Cli::parse();
+    quiet_device_select();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Some((name, sub)) = matches.subcommand() {
+        if let Err(message) = flags::check(&cli.command, &flags::Given(sub)) {
+            let mut cmd = Cli::command();
+            cmd.build();
+            if let Some(sub_cmd) = cmd.find_subcommand_mut(name) {
+                sub_cmd
+                    .error(clap::error::ErrorKind::ArgumentConflict, message)
+                    .exit();
+            }
+        }
+    }
     let result = match cli.command {
         Command::Convert(a) => convert_cmd::run(a),
         Command::Generate(a) => generate_cmd::run(a),
@@ -83,11 +110,27 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // `{:#}` prints the whole context chain on one line: "converting x: reading y: ...".
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The whole context chain on one line ("converting x: reading y: ..."), each cause once: an
+/// error that prints its source in its own message (as many libraries' do) would repeat it.
+fn chain(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let message = cause.to_string();
+        if line.ends_with(&format!(": {message}")) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&message);
+    }
+    line
 }
 
 /// Bytes of memory available now (`MemAvailable` of /proc/meminfo), where the system says.

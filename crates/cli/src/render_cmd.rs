@@ -114,8 +114,11 @@ pub fn run(args: Args) -> Result<()> {
 /// A store through the virtualized renderer: frames with a still camera until the image is the
 /// full-detail image (or, with --no-converge, until the LoD's request is resident).
 fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
+    let store = pointlet_store::Store::open(path)?;
+    let color = crate::scene::store_color(args.draw.color, &store)?;
+    drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;
-    let config = args.virtual_args.config(&args.draw);
+    let config = args.virtual_args.config(&args.draw, color);
     let mut scene =
         pointlet_engine::VirtualScene::open(&ctx, path, config, (args.width, args.height))
             .with_context(|| format!("opening {}", path.display()))?;

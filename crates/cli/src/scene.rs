@@ -2,8 +2,10 @@
 //! coloured by one attribute.
 
 use anyhow::{bail, Context, Result};
-use pointlet_core::color::{point_color, ColorMode, ColorScale};
-use pointlet_core::{Aabb, PointBatch};
+use pointlet_core::color::{
+    default_color, default_color_of_parts, point_color, ColorMode, ColorScale, DefaultColor,
+};
+use pointlet_core::{Aabb, PointBatch, PointLayout};
 use pointlet_gpu::PointSet;
 use std::path::Path;
 
@@ -17,27 +19,56 @@ pub struct Scene {
     pub bounds: Aabb,
 }
 
-/// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `mode`.
-pub fn load(input: Option<&Path>, mode: ColorMode, demo_points: u64) -> Result<Scene> {
+/// The colouring `asked` for, which data of `layout` must have, or without one the data's
+/// default (said on stderr).
+pub fn choose_color(
+    asked: Option<ColorMode>,
+    layout: &PointLayout,
+    name: &str,
+    default: impl FnOnce() -> Result<DefaultColor>,
+) -> Result<ColorMode> {
+    match asked {
+        Some(mode) if mode.available_in(layout) => Ok(mode),
+        Some(mode) => bail!("{name} has no {} attribute to colour by", mode.name()),
+        None => {
+            let d = default()?;
+            eprintln!("note: {name}: {d}");
+            Ok(d.mode)
+        }
+    }
+}
+
+/// [`choose_color`] for a store, its default chosen on a few pointlets.
+pub fn store_color(asked: Option<ColorMode>, store: &pointlet_store::Store) -> Result<ColorMode> {
+    let layout = store.header().layout;
+    choose_color(asked, &layout, &store.path().display().to_string(), || {
+        Ok(default_color_of_parts(
+            &layout,
+            store.pointlets().len(),
+            |i| store.read_pointlet(i),
+        )?)
+    })
+}
+
+/// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `asked`, or
+/// by the data's default colouring.
+pub fn load(input: Option<&Path>, asked: Option<ColorMode>, demo_points: u64) -> Result<Scene> {
     match input {
         Some(p) if crate::load::is_store_path(p) => {
-            let store = pointlet_store::Store::open(p)
-                .with_context(|| format!("opening store {}", p.display()))?;
+            let store = pointlet_store::Store::open(p)?;
+            let mode = store_color(asked, &store)?;
+            let name = p.display().to_string();
             let bounds = store.header().bounds;
-            let mut acc = Accumulator::new(mode, bounds, store.header().points);
+            let mut acc = Accumulator::new(Some(mode), bounds, store.header().points);
             for i in 0..store.pointlets().len() {
                 let batch = store
                     .read_pointlet(i)
-                    .with_context(|| format!("reading pointlet {i} of {}", p.display()))?;
-                acc.push(&batch);
+                    .with_context(|| format!("reading pointlet {i}"))?;
+                acc.push(&batch, &name)?;
             }
-            acc.finish(p.display().to_string())
+            acc.finish(name)
         }
-        Some(p) => {
-            let reader =
-                pointlet_io::open(p).with_context(|| format!("opening {}", p.display()))?;
-            read_all(reader, mode, p.display().to_string())
-        }
+        Some(p) => read_all(pointlet_io::open(p)?, asked, p.display().to_string()),
         None => {
             let generator =
                 pointlet_io::generate::SceneGenerator::new(pointlet_io::generate::SceneConfig {
@@ -46,7 +77,7 @@ pub fn load(input: Option<&Path>, mode: ColorMode, demo_points: u64) -> Result<S
                 });
             read_all(
                 Box::new(generator.reader()),
-                mode,
+                asked,
                 format!("demo scene ({demo_points} points)"),
             )
         }
@@ -55,29 +86,27 @@ pub fn load(input: Option<&Path>, mode: ColorMode, demo_points: u64) -> Result<S
 
 fn read_all(
     mut reader: Box<dyn pointlet_io::PointReader>,
-    mode: ColorMode,
+    asked: Option<ColorMode>,
     name: String,
 ) -> Result<Scene> {
     let meta = reader.meta().clone();
-    let mut acc = Accumulator::new(mode, meta.bounds, meta.point_count);
-    while let Some(batch) = reader
-        .read_batch(1 << 20)
-        .with_context(|| format!("reading {name}"))?
-    {
-        acc.push(&batch);
+    let mut acc = Accumulator::new(asked, meta.bounds, meta.point_count);
+    while let Some(batch) = reader.read_batch(1 << 20)? {
+        acc.push(&batch, &name)?;
     }
     acc.finish(name)
 }
 
 struct Accumulator {
-    mode: ColorMode,
+    /// `None` until the first batch chooses the default colouring.
+    mode: Option<ColorMode>,
     scale: Option<ColorScale>,
     bounds: Aabb,
     set: PointSet,
 }
 
 impl Accumulator {
-    fn new(mode: ColorMode, bounds: Aabb, expected: u64) -> Self {
+    fn new(mode: Option<ColorMode>, bounds: Aabb, expected: u64) -> Self {
         // Reserve what the header claims, capped: a lying header must not allocate terabytes.
         let cap = expected.min(1 << 28) as usize;
         Self {
@@ -91,20 +120,28 @@ impl Accumulator {
         }
     }
 
-    fn push(&mut self, batch: &PointBatch) {
-        let z = if self.bounds.is_empty() {
-            [0.0, 1.0]
-        } else {
-            [self.bounds.min[2], self.bounds.max[2]]
+    /// Adds a batch of the data called `name`; the first one fits the colour scale (and
+    /// chooses the colouring unless one was asked for, as the viewer does).
+    fn push(&mut self, batch: &PointBatch, name: &str) -> Result<()> {
+        let scale = match self.scale {
+            Some(scale) => scale,
+            None => {
+                let z = if self.bounds.is_empty() {
+                    [0.0, 1.0]
+                } else {
+                    [self.bounds.min[2], self.bounds.max[2]]
+                };
+                let mode = choose_color(self.mode, &batch.layout, name, || {
+                    Ok(default_color(&batch.layout, &[batch]))
+                })?;
+                *self.scale.insert(ColorScale::fit(mode, batch, z))
+            }
         };
-        let mode = self.mode;
-        let scale = *self
-            .scale
-            .get_or_insert_with(|| ColorScale::fit(mode, batch, z));
         self.set.positions.extend_from_slice(&batch.xyz);
         self.set
             .colors
             .extend((0..batch.len()).map(|i| point_color(batch, i, &scale)));
+        Ok(())
     }
 
     fn finish(self, name: String) -> Result<Scene> {

@@ -19,8 +19,14 @@ pub struct CameraArgs {
     /// Point looked at, `x,y,z`.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub target: Option<[f64; 3]>,
-    /// Up direction, `x,y,z` (data is z-up by default).
-    #[arg(long, value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    /// With --eye/--target: up direction, `x,y,z` (data is z-up by default).
+    #[arg(
+        long,
+        value_parser = parse_vec3,
+        default_value = "0,0,1",
+        allow_hyphen_values = true,
+        requires = "eye"
+    )]
     pub up: [f64; 3],
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
@@ -62,15 +68,17 @@ pub struct DrawArgs {
     #[arg(long, default_value = "original", value_parser = parse_order)]
     pub order: VertexOrder,
     /// Colour by: rgb, intensity, elevation, classification, return-number, point-source-id,
-    /// gps-time.
-    #[arg(long, default_value = "rgb", value_parser = parse_color)]
-    pub color: ColorMode,
+    /// gps-time (default: RGB where the data has colours, else intensity, else elevation).
+    #[arg(long, value_parser = parse_color)]
+    pub color: Option<ColorMode>,
     /// Eye-Dome Lighting.
     #[arg(long)]
     pub edl: bool,
-    #[arg(long, default_value_t = 1.0)]
+    /// With --edl: how dark the shading gets.
+    #[arg(long, default_value_t = 1.0, requires = "edl")]
     pub edl_strength: f32,
-    #[arg(long, default_value_t = 1.4)]
+    /// With --edl: the radius in pixels of the neighbours it compares depths with.
+    #[arg(long, default_value_t = 1.4, requires = "edl")]
     pub edl_radius: f32,
     /// Hole filling radius in pixels (0 = off).
     #[arg(long, default_value_t = 0)]
@@ -78,8 +86,8 @@ pub struct DrawArgs {
     /// Occlusion filter: drop points seen through gaps of nearer surfaces (paper eq. 4).
     #[arg(long)]
     pub occlusion: bool,
-    /// Pixels the occlusion filter searches in each direction.
-    #[arg(long, default_value_t = 3)]
+    /// With --occlusion: pixels the filter searches in each direction.
+    #[arg(long, default_value_t = 3, requires = "occlusion")]
     pub occlusion_radius: u32,
     /// Background colour, `r,g,b` (0–255) or `#rrggbb`.
     #[arg(long, default_value = "0,0,0", value_parser = parse_color_rgb)]
@@ -145,7 +153,8 @@ pub struct VirtualArgs {
 }
 
 impl VirtualArgs {
-    pub fn config(&self, draw: &DrawArgs) -> pointlet_engine::SceneConfig {
+    /// The engine's settings, colouring by `color`.
+    pub fn config(&self, draw: &DrawArgs, color: ColorMode) -> pointlet_engine::SceneConfig {
         pointlet_engine::SceneConfig {
             vram_budget: self.vram_budget.unwrap_or(2 << 30),
             ram_budget: self.ram_budget.unwrap_or_else(default_ram_budget),
@@ -155,7 +164,7 @@ impl VirtualArgs {
             loaders: self.loaders,
             threads: self.residency_threads,
             upload_per_frame: self.upload_per_frame,
-            color: draw.color,
+            color,
         }
     }
 }

@@ -44,7 +44,7 @@ pub struct Args {
     #[arg(long, requires = "frames")]
     pub window_screenshot: Option<PathBuf>,
     /// With --frames: seconds a store may take to converge after the frames before failing.
-    #[arg(long, default_value_t = 120.0)]
+    #[arg(long, default_value_t = 120.0, requires = "frames")]
     pub converge_timeout: f64,
     /// Draw as fast as possible instead of at the display's refresh rate.
     #[arg(long)]

@@ -143,7 +143,7 @@ fn output_that_is_an_input_is_refused() {
     let copy = dir.path().join("in.las");
     std::fs::copy(data("simple.las"), &copy).expect("copy");
     let before = std::fs::read(&copy).expect("read");
-    fails(&["convert", s(&copy), "-o", s(&copy)], &["input"]);
+    fails(&["convert", s(&copy), "-o", s(&copy)], &["in.las"]);
     assert_eq!(
         std::fs::read(&copy).expect("read"),
         before,
@@ -222,4 +222,50 @@ fn bad_arguments() {
         "lots",
     ]);
     assert_eq!(out.status.code(), Some(2), "usage errors exit with 2");
+}
+
+#[test]
+fn error_chains_say_each_fact_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let missing = dir.path().join("none.las");
+    let missing_store = dir.path().join("none.pointlet");
+    let folder = dir.path().join("folder.las");
+    std::fs::create_dir(&folder).expect("mkdir");
+    let garbage = dir.path().join("garbage.pointlet");
+    std::fs::write(&garbage, b"not a store").expect("write");
+    let png = dir.path().join("x.png");
+    let out = dir.path().join("o.pointlet");
+    let las = dir.path().join("o.las");
+    for input in [&missing, &missing_store, &folder, &garbage] {
+        let i = s(input);
+        let name = input.file_name().and_then(|n| n.to_str()).expect("name");
+        let commands: [&[&str]; 6] = [
+            &["info", i],
+            &["convert", i, "-o", s(&out)],
+            &["render", i, "-o", s(&png)],
+            &["metrics", i],
+            &["export", i, "-o", s(&las)],
+            &["bench-read", i],
+        ];
+        for args in commands {
+            let err = fails(args, &[name]);
+            let line = err.lines().next().unwrap_or("");
+            assert_eq!(
+                line.matches(name).count(),
+                1,
+                "{args:?}: the path once: {line}"
+            );
+            assert!(line.matches("(os error").count() <= 1, "{args:?}: {line}");
+            for part in line.split(": ").filter(|p| p.len() > 8) {
+                assert_eq!(
+                    line.matches(part).count(),
+                    1,
+                    "{args:?}: '{part}' repeated: {line}"
+                );
+            }
+        }
+    }
+    assert!(listing(dir.path())
+        .iter()
+        .all(|f| f != "x.png" && f != "o.las" && f != "o.pointlet"));
 }

@@ -74,3 +74,363 @@ fn generate_is_deterministic() {
     let v: serde_json::Value = serde_json::from_str(&ok(&["info", s(&a), "--json"])).expect("json");
     assert_eq!(v["points"], 50000);
 }
+
+/// Lit pixels of a PNG (any channel above 0).
+fn lit_pixels(path: &std::path::Path) -> usize {
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(path).expect("open png"),
+    ));
+    let mut reader = decoder.read_info().expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("png size")];
+    let info = reader.next_frame(&mut buf).expect("png data");
+    buf.truncate(info.buffer_size());
+    buf.chunks_exact(4).filter(|p| p[..3] != [0, 0, 0]).count()
+}
+
+/// Runs and asserts success, returning stderr.
+fn ok_stderr(args: &[&str]) -> String {
+    let out = pointlet(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "pointlet {args:?} failed:\n{err}");
+    err
+}
+
+#[test]
+fn data_without_colours_is_drawn_by_its_intensity_or_elevation() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let size = ["--width", "160", "--height", "120"];
+    // test1_4.las is point format 6 (no RGB); plane.laz has an RGB column that is all zero.
+    for (file, reason) in [
+        ("test1_4.las", "has no rgb"),
+        ("plane.laz", "rgb is black everywhere"),
+    ] {
+        let store = dir.path().join(format!("{file}.pointlet"));
+        ok(&["convert", s(&data(file)), "-o", s(&store)]);
+        for input in [data(file), store.clone()] {
+            let png = dir.path().join("out.png");
+            let mut args = vec!["render", s(&input), "-o", s(&png)];
+            args.extend_from_slice(&size);
+            let err = ok_stderr(&args).to_lowercase();
+            assert!(
+                err.contains("note:")
+                    && err.contains("colouring by intensity")
+                    && err.contains(reason),
+                "{input:?}: the chosen colouring is said:\n{err}"
+            );
+            assert!(lit_pixels(&png) > 100, "{input:?} drawn black");
+        }
+        let json = dir.path().join("bench.json");
+        let err = ok_stderr(&[
+            "bench",
+            s(&store),
+            "--frames",
+            "2",
+            "--warmup",
+            "0",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--json",
+            s(&json),
+        ]);
+        assert!(err.contains("colouring by intensity"), "bench: {err}");
+    }
+    // Data with colours keeps them; an explicit colouring the data lacks is an error.
+    let png = dir.path().join("rgb.png");
+    let err = ok_stderr(&[
+        "render",
+        s(&data("simple.las")),
+        "-o",
+        s(&png),
+        "--width",
+        "64",
+    ]);
+    assert!(err.contains("colouring by rgb"), "{err}");
+    let store = dir.path().join("test1_4.las.pointlet");
+    for input in [data("test1_4.las"), store] {
+        fails(
+            &["render", s(&input), "-o", s(&png), "--color", "rgb"],
+            &["test1_4.las", "no rgb attribute"],
+        );
+    }
+}
+
+/// Runs and asserts a usage error: exit code 2 (as clap's own), an `error:` line containing
+/// every `needles`.
+fn usage_fails(args: &[&str], needles: &[&str]) {
+    let out = pointlet(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "pointlet {args:?}:\n{err}");
+    assert!(err.starts_with("error: "), "no error line:\n{err}");
+    for n in needles {
+        assert!(
+            err.contains(n),
+            "pointlet {args:?}: message lacks '{n}':\n{err}"
+        );
+    }
+}
+
+#[test]
+fn flags_that_do_not_apply_are_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("s.pointlet");
+    ok(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    let png = dir.path().join("x.png");
+    let (file, store, png) = (
+        s(&data("simple.las")).to_string(),
+        s(&store).to_string(),
+        s(&png),
+    );
+    let store_only = [
+        ["--bucket", "10"],
+        ["--vram-budget", "1GiB"],
+        ["--ram-budget", "1GiB"],
+        ["--upload-per-frame", "1k"],
+        ["--pool-page-size", "512"],
+        ["--loaders", "2"],
+        ["--residency-threads", "2"],
+        ["--max-frames", "5"],
+    ];
+    for input in [Some(file.as_str()), None] {
+        let kind = if input.is_some() {
+            "a point file"
+        } else {
+            "the demo scene"
+        };
+        for flag in store_only
+            .iter()
+            .map(|f| &f[..])
+            .chain([&["--no-converge"][..]])
+        {
+            let mut args = vec!["render", "-o", png];
+            args.extend(input);
+            args.extend_from_slice(flag);
+            usage_fails(&args, &[flag[0], "applies to stores only", kind]);
+        }
+    }
+    for flag in [["--order", "morton"], ["--page-size", "1024"]] {
+        usage_fails(
+            &["render", &store, "-o", png, flag[0], flag[1]],
+            &[
+                flag[0],
+                "point files and the demo scene only, not to a store",
+            ],
+        );
+        usage_fails(
+            &["view", &store, flag[0], flag[1]],
+            &[flag[0], "not to a store"],
+        );
+        usage_fails(
+            &["bench", &store, flag[0], flag[1]],
+            &[flag[0], "not to a store"],
+        );
+    }
+    for cmd in ["render", "view", "bench"] {
+        let mut args = vec![cmd, &store, "--raster", "hw-points"];
+        if cmd == "render" {
+            args.extend(["-o", png]);
+        }
+        usage_fails(
+            &args,
+            &["hw-points draws point files and the demo scene only"],
+        );
+    }
+    for flag in [
+        ["--bucket", "10"],
+        ["--vram-budget", "1GiB"],
+        ["--converge-timeout", "3"],
+    ] {
+        usage_fails(
+            &["view", &file, "--frames", "1", flag[0], flag[1]],
+            &[flag[0], "stores only"],
+        );
+    }
+    usage_fails(&["view", &store, "--converge-timeout", "3"], &["--frames"]);
+    usage_fails(
+        &["render", &file, "-o", png, "--demo-points", "1000"],
+        &["--demo-points", "the demo scene"],
+    );
+    usage_fails(
+        &["render", &file, "-o", png, "--edl-strength", "2"],
+        &["--edl"],
+    );
+    usage_fails(
+        &["render", &file, "-o", png, "--occlusion-radius", "2"],
+        &["--occlusion"],
+    );
+    usage_fails(&["render", &file, "-o", png, "--up", "0,1,0"], &["--eye"]);
+    usage_fails(
+        &[
+            "render", &file, "-o", png, "--view", "closeup", "--eye", "0,0,9", "--target", "0,0,0",
+        ],
+        &["--view", "not to a camera placed by --eye/--target"],
+    );
+    usage_fails(
+        &["bench", &store, "--quality", "--frames", "10"],
+        &["--frames", "not to --quality"],
+    );
+    usage_fails(
+        &["bench", &store, "--buckets", "1k"],
+        &["--buckets", "applies to --quality"],
+    );
+    usage_fails(
+        &["bench", &store, "--path", "p.json", "--orbit-seconds", "3"],
+        &["--orbit-seconds", "--path orbit"],
+    );
+    usage_fails(
+        &["bench-raster", &file, "--points", "1k"],
+        &["--points", "the generated scene"],
+    );
+    let las = dir.path().join("g.las");
+    usage_fails(
+        &[
+            "generate",
+            "--points",
+            "1k",
+            "-o",
+            s(&las),
+            "--pointlets",
+            "10",
+        ],
+        &["--pointlets", ".pointlet output"],
+    );
+    assert!(
+        !las.exists() && !std::path::Path::new(png).exists(),
+        "nothing written"
+    );
+}
+
+#[test]
+fn bench_raster_never_reports_impossible_timings() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let json = dir.path().join("r.json");
+    let out = pointlet(&[
+        "bench-raster",
+        s(&data("autzen_trim.laz")),
+        "--frames",
+        "3",
+        "--width",
+        "320",
+        "--height",
+        "240",
+        "--orders",
+        "original",
+        "--encodings",
+        "full16",
+        "--json",
+        s(&json),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+    let rows = v["rows"].as_array().expect("rows");
+    match v["unreliable"].as_str() {
+        // A driver whose timestamps cannot be trusted (lavapipe's): said, and no figures.
+        Some(why) => {
+            assert!(rows.is_empty(), "{v}");
+            assert!(
+                text.contains("timings unreliable") && text.contains(why),
+                "{text}"
+            );
+            assert!(
+                !text.contains("% of copy") && !text.contains("speed-up"),
+                "{text}"
+            );
+        }
+        // Else no rasterizer reads even its positions faster than the copy kernel moves memory.
+        None => {
+            let copy = v["copy_gb_per_s"].as_f64().expect("copy kernel");
+            for r in rows {
+                let read = r["position_gb_per_s"].as_f64().expect("position GB/s");
+                assert!(
+                    read <= copy && r["median_ms"].as_f64() > Some(0.0),
+                    "impossible: {r}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn convert_writes_stores_only_and_export_says_so() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for name in ["out.las", "out.laz", "out"] {
+        let out = dir.path().join(name);
+        fails(
+            &["convert", s(&data("simple.las")), "-o", s(&out)],
+            &[name, "must end in .pointlet", "export"],
+        );
+    }
+    let store = dir.path().join("s.pointlet");
+    ok(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    let again = dir.path().join("again.pointlet");
+    fails(
+        &["export", s(&store), "-o", s(&again)],
+        &["again.pointlet", ".las or .laz", "convert"],
+    );
+    assert_eq!(listing(dir.path()), ["s.pointlet"], "nothing else written");
+}
+
+#[test]
+fn a_successful_render_prints_no_error_line() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("x.png");
+    // As on a headless machine: no session runtime folder (libwayland's complaint).
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pointlet"))
+        .args([
+            "render",
+            s(&data("simple.las")),
+            "-o",
+            s(&png),
+            "--width",
+            "64",
+            "--height",
+            "48",
+        ])
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .expect("running pointlet");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.lines().any(|l| l.starts_with("error")),
+        "an error line on success:\n{err}"
+    );
+}
+
+#[test]
+fn rates_and_info_numbers_read_as_people_write_them() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("s.pointlet");
+    let err = ok_stderr(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    // "(25.4 k points/s)": three significant digits and a unit.
+    let rate = err
+        .rsplit('(')
+        .next()
+        .and_then(|r| r.strip_suffix(" points/s)\n"))
+        .unwrap_or_else(|| panic!("no rate: {err}"));
+    let number = rate.split(' ').next().expect("number");
+    let digits = number.chars().filter(|c| c.is_ascii_digit()).count();
+    assert!(
+        digits <= 3 && number.parse::<f64>().is_ok_and(|v| v > 0.0),
+        "rate '{rate}' in: {err}"
+    );
+    for input in [data("simple.las"), store] {
+        let text = ok(&["info", s(&input)]);
+        assert!(text.contains("[635619.85,848899.7,406.59]"), "{text}");
+        assert!(!text.contains("-0.0") && !text.contains("00000"), "{text}");
+        let json = ok(&["info", s(&input), "--json"]);
+        assert!(
+            json.contains("848899.7") && !json.contains("848899.70000"),
+            "{json}"
+        );
+        assert!(!json.contains("-0.0"), "{json}");
+    }
+}

@@ -208,7 +208,7 @@ fn viewer_window_screenshot_and_bad_input() {
         rgba.chunks_exact(4).all(|p| p[3] == 255),
         "the window is opaque"
     );
-    // Data without colours opens coloured by elevation (the default is --color rgb).
+    // Data without colours opens coloured by its intensity (the default for data without RGB).
     let err = x.view(&[
         s(&data("simple1_1.las")),
         "--frames",
@@ -218,7 +218,7 @@ fn viewer_window_screenshot_and_bad_input() {
         "--height",
         "150",
     ]);
-    assert!(err.contains("colouring by elevation"), "{err}");
+    assert!(err.contains("colouring by intensity"), "{err}");
     // A missing or broken file and a wrong screenshot name fail cleanly, before any window
     // opens.
     let missing = dir.path().join("missing.laz");

@@ -1,7 +1,7 @@
 //! Attribute colouring: turns a point attribute into the RGBA8 word the rasterizers draw
 //! (red in the low byte). The viewer switches between these; render/bench use one.
 
-use crate::PointBatch;
+use crate::{PointBatch, PointLayout};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -41,6 +41,76 @@ impl ColorMode {
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == s)
     }
+}
+
+impl ColorMode {
+    /// Whether data of `layout` has what this mode colours by (every point has a position,
+    /// intensity, returns, class and source id; RGB and GPS time only in some formats).
+    pub fn available_in(self, layout: &PointLayout) -> bool {
+        match self {
+            ColorMode::Rgb => layout.rgb,
+            ColorMode::GpsTime => layout.gps_time,
+            _ => true,
+        }
+    }
+}
+
+/// The colouring chosen for data when none was asked for, and why (for a `note:` line).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DefaultColor {
+    pub mode: ColorMode,
+    pub reason: &'static str,
+}
+
+impl std::fmt::Display for DefaultColor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "colouring by {} ({}; --color picks another)",
+            self.mode.name(),
+            self.reason
+        )
+    }
+}
+
+/// Pointlets a store's default colouring looks at, spread over the store.
+const DEFAULT_COLOR_SAMPLES: usize = 8;
+
+/// The colouring that shows data of `layout` when none is asked for: its RGB when some point
+/// of `sample` has a colour other than black, else its intensity when some point has one, else
+/// elevation (which every point has). An all-zero RGB column would draw a black picture.
+pub fn default_color(layout: &PointLayout, sample: &[&PointBatch]) -> DefaultColor {
+    let any_rgb = sample.iter().any(|b| b.rgb.iter().any(|c| *c != [0; 3]));
+    let any_intensity = sample.iter().any(|b| b.intensity.iter().any(|v| *v != 0));
+    let (mode, reason) = match (layout.rgb, any_rgb, any_intensity) {
+        (true, true, _) => (ColorMode::Rgb, "the data has RGB colours"),
+        (false, _, true) => (ColorMode::Intensity, "the data has no RGB"),
+        (true, false, true) => (ColorMode::Intensity, "its RGB is black everywhere"),
+        (false, _, false) => (
+            ColorMode::Elevation,
+            "the data has no RGB and its intensity is zero everywhere",
+        ),
+        (true, false, false) => (
+            ColorMode::Elevation,
+            "its RGB is black and its intensity zero everywhere",
+        ),
+    };
+    DefaultColor { mode, reason }
+}
+
+/// [`default_color`] for data held in `pointlets` parts (a store), looking at a few parts
+/// spread over it that `read` returns.
+pub fn default_color_of_parts<E>(
+    layout: &PointLayout,
+    pointlets: usize,
+    mut read: impl FnMut(usize) -> Result<PointBatch, E>,
+) -> Result<DefaultColor, E> {
+    let step = pointlets.div_ceil(DEFAULT_COLOR_SAMPLES).max(1);
+    let sample = (0..pointlets)
+        .step_by(step)
+        .map(&mut read)
+        .collect::<Result<Vec<_>, E>>()?;
+    Ok(default_color(layout, &sample.iter().collect::<Vec<_>>()))
 }
 
 /// How values map to colours: the range (and gamma) of scalar attributes, and whether RGB is
@@ -258,6 +328,44 @@ mod tests {
         assert_eq!(Ramp::Viridis.at(0.0), [68, 1, 84]);
         assert_eq!(Ramp::Viridis.at(2.0), [253, 231, 37]);
         assert_eq!(Ramp::Turbo.at(f64::NAN), [48, 18, 59]);
+    }
+
+    #[test]
+    fn the_default_colouring_skips_missing_and_black_columns() {
+        let layout = |rgb| PointLayout {
+            rgb,
+            ..Default::default()
+        };
+        let mut b = PointBatch::new(layout(true));
+        b.xyz.push([0.0; 3]);
+        b.rgb.push([0; 3]);
+        b.intensity.push(0);
+        assert_eq!(
+            default_color(&layout(true), &[&b]).mode,
+            ColorMode::Elevation
+        );
+        b.intensity[0] = 7;
+        assert_eq!(
+            default_color(&layout(true), &[&b]).mode,
+            ColorMode::Intensity
+        );
+        b.rgb[0] = [0, 0, 1];
+        assert_eq!(default_color(&layout(true), &[&b]).mode, ColorMode::Rgb);
+        assert_eq!(
+            default_color(&layout(false), &[&b]).mode,
+            ColorMode::Intensity,
+            "a layout without RGB is never coloured by it"
+        );
+        let read = |i: usize| -> Result<PointBatch, ()> {
+            let mut p = PointBatch::new(layout(true));
+            p.rgb.push(if i == 40 { [9; 3] } else { [0; 3] });
+            Ok(p)
+        };
+        assert_eq!(
+            default_color_of_parts(&layout(true), 64, read),
+            Ok(default_color(&layout(true), &[&b])),
+            "a colour in a later part counts"
+        );
     }
 
     #[test]

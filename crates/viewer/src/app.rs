@@ -8,7 +8,7 @@ use crate::navigation::{Drag, MoveKey};
 use crate::present::{Overlay, Presented, Presenter};
 use crate::view::View;
 use crate::{Automation, Input, ViewerConfig, ViewerError};
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{default_color_of_parts, ColorMode, DefaultColor};
 use pointlet_core::PointLayout;
 use pointlet_engine::{SceneConfig, VirtualScene};
 use pointlet_gpu::{AdapterRequest, GpuContext, RasterVariant};
@@ -150,11 +150,15 @@ impl App {
         }
         let (content, color) = match (&c.input, self.memory.take()) {
             (Input::Store(path), _) => {
-                let layout = pointlet_store::Store::open(path)
-                    .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?
-                    .header()
-                    .layout;
-                let color = usable_color(&layout, c.color, &path.display().to_string());
+                let store = pointlet_store::Store::open(path)
+                    .map_err(|e| ViewerError::Load(e.to_string()))?;
+                let layout = store.header().layout;
+                let color = usable_color(&layout, c.color, &path.display().to_string(), || {
+                    default_color_of_parts(&layout, store.pointlets().len(), |i| {
+                        store.read_pointlet(i)
+                    })
+                    .map_err(|e| ViewerError::Load(e.to_string()))
+                })?;
                 let scene = VirtualScene::open(
                     &ctx,
                     path,
@@ -172,7 +176,8 @@ impl App {
                 (Content::Store(Box::new(scene)), color)
             }
             (_, Some(data)) => {
-                let color = usable_color(&data.layout, c.color, &data.name);
+                let color =
+                    usable_color(&data.layout, c.color, &data.name, || Ok(data.default_color))?;
                 let scale = data.fitted(color);
                 (
                     Content::upload(&ctx, data, &scale, c.encoding, c.page_size)?,
@@ -216,17 +221,26 @@ impl App {
     }
 }
 
-/// The requested colouring, or elevation (every point has one) when the data lacks the
-/// attribute (said on stderr): the default `--color rgb` must not stop data without colours.
-fn usable_color(layout: &PointLayout, wanted: ColorMode, name: &str) -> ColorMode {
-    if crate::colors::available_modes(layout).contains(&wanted) {
-        return wanted;
+/// The requested colouring, which the data must have, or without one the data's default
+/// (said on stderr, as `pointlet render` says it).
+fn usable_color(
+    layout: &PointLayout,
+    wanted: Option<ColorMode>,
+    name: &str,
+    default: impl FnOnce() -> Result<DefaultColor, ViewerError>,
+) -> Result<ColorMode, ViewerError> {
+    match wanted {
+        Some(mode) if mode.available_in(layout) => Ok(mode),
+        Some(mode) => Err(ViewerError::Config(format!(
+            "{name} has no {} attribute to colour by",
+            mode.name()
+        ))),
+        None => {
+            let d = default()?;
+            eprintln!("note: {name}: {d}");
+            Ok(d.mode)
+        }
     }
-    eprintln!(
-        "note: {name} has no {} attribute; colouring by elevation",
-        wanted.name()
-    );
-    ColorMode::Elevation
 }
 
 /// The requested variant, or what replaces it on this adapter/content (said on stderr).

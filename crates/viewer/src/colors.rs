@@ -7,7 +7,7 @@ use pointlet_core::PointLayout;
 pub fn available_modes(layout: &PointLayout) -> Vec<ColorMode> {
     ColorMode::ALL
         .into_iter()
-        .filter(|m| pointlet_engine::has_attribute(layout, *m))
+        .filter(|m| m.available_in(layout))
         .collect()
 }
 

@@ -83,7 +83,8 @@ pub struct ViewerConfig {
     pub size: (u32, u32),
     /// Variant as requested (the viewer falls back where the adapter lacks it).
     pub settings: RenderSettings,
-    pub color: ColorMode,
+    /// What to colour by; `None`: the data's default (RGB, else intensity, else elevation).
+    pub color: Option<ColorMode>,
     pub encoding: PointEncoding,
     /// Points per GPU page of in-memory clouds.
     pub page_size: u32,

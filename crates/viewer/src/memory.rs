@@ -7,7 +7,7 @@
 //! order permutation), so the viewer's image of a camera equals the headless render's.
 
 use crate::ViewerError;
-use pointlet_core::color::{point_color, ColorMode, ColorScale};
+use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale, DefaultColor};
 use pointlet_core::order::{apply, VertexOrder};
 use pointlet_core::{Aabb, PointBatch, PointLayout};
 use pointlet_gpu::PointSet;
@@ -44,6 +44,8 @@ pub struct MemoryData {
     pub bounds: Aabb,
     /// Data-fitted scale of every colour mode, in `ColorMode::ALL` order.
     fitted: Vec<ColorScale>,
+    /// The colouring when none is asked for, chosen on the same sample as the scales.
+    pub default_color: DefaultColor,
     pub class_counts: [u64; 256],
 }
 
@@ -113,11 +115,11 @@ impl MemoryData {
     fn build(
         name: String,
         batch: PointBatch,
-        fitted: Option<Vec<ColorScale>>,
+        fitted: Option<(Vec<ColorScale>, DefaultColor)>,
         order: VertexOrder,
     ) -> Result<Self, ViewerError> {
         let layout = batch.layout;
-        let Some(fitted) = fitted.filter(|_| !batch.xyz.is_empty()) else {
+        let Some((fitted, default_color)) = fitted.filter(|_| !batch.xyz.is_empty()) else {
             return Err(ViewerError::Load(format!("{name} holds no points")));
         };
         if batch.xyz.len() as u64 >= u32::MAX as u64 {
@@ -143,6 +145,7 @@ impl MemoryData {
             perm,
             bounds,
             fitted,
+            default_color,
             class_counts,
         })
     }
@@ -198,10 +201,12 @@ impl MemoryData {
     }
 }
 
-fn fit_all(sample: &PointBatch, z: [f64; 2]) -> Vec<ColorScale> {
-    ColorMode::ALL
+/// The scale of every mode and the default colouring, fitted on `sample`.
+fn fit_all(sample: &PointBatch, z: [f64; 2]) -> (Vec<ColorScale>, DefaultColor) {
+    let scales = ColorMode::ALL
         .map(|m| ColorScale::fit(m, sample, z))
-        .to_vec()
+        .to_vec();
+    (scales, default_color(&sample.layout, &[sample]))
 }
 
 /// Appends the columns colouring reads (others are not kept).
@@ -240,6 +245,20 @@ mod tests {
         let classes: u64 = set.colors.iter().map(|c| (c >> 24) as u64).sum();
         let expected: u64 = (0..256).map(|k| k as u64 * d.class_counts[k]).sum();
         assert_eq!(classes, expected);
+    }
+
+    #[test]
+    fn the_default_colouring_is_chosen_on_the_data() {
+        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata");
+        for (file, mode) in [
+            ("simple.las", ColorMode::Rgb),
+            ("test1_4.las", ColorMode::Intensity), // no RGB
+            ("plane.laz", ColorMode::Intensity),   // RGB all zero
+        ] {
+            let d = MemoryData::load(Source::File(&testdata.join(file)), VertexOrder::Original)
+                .expect("test data");
+            assert_eq!(d.default_color.mode, mode, "{file}");
+        }
     }
 
     #[test]
