@@ -5,7 +5,7 @@
 //! corner in NDC and v the viewport in pixels; γ_i = (Σ_j h_j)² / h_i² where h is the AABB's
 //! half diagonal, damping pointlets with anomalous extents. Culled pointlets get l_i = 0; visible
 //! ones at least one pixel's worth. The requested count is l_i / Σl · B, clamped to the
-//! pointlet's size.
+//! pointlet's size, and at least one point for a visible pointlet.
 
 use crate::Aabb;
 
@@ -90,7 +90,15 @@ pub fn requested_points(
     importance
         .iter()
         .zip(counts)
-        .map(|(l, n)| ((l / total * bucket as f64).round() as u64).min(*n as u64) as u32)
+        .map(|(l, n)| {
+            if *l == 0.0 {
+                return 0;
+            }
+            // A point at least: a bucket too small to share out still shows every visible one.
+            ((l / total * bucket as f64).round() as u64)
+                .max(1)
+                .min(*n as u64) as u32
+        })
         .collect()
 }
 
