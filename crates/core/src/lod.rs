@@ -171,6 +171,24 @@ mod tests {
     }
 
     #[test]
+    fn a_bucket_too_small_to_share_still_gives_every_visible_pointlet_a_point() {
+        let vp = camera();
+        let boxes = [
+            cube([0.0, -5.0, 0.0], 0.5),
+            cube([0.0, 20.0, 0.0], 0.5),
+            cube([0.0, -20.0, 0.0], 0.5),
+        ];
+        for bucket in [0, 1, 10] {
+            let r = requested_points(&vp, [1000.0, 1000.0], &boxes, &[1_000_000, 5, 5], bucket);
+            assert!(r[0] >= 1 && r[1] >= 1, "bucket {bucket}: {r:?}");
+            assert_eq!(r[2], 0, "culled");
+        }
+        // An empty pointlet asks for nothing.
+        let r = requested_points(&vp, [1000.0, 1000.0], &boxes[..1], &[0], 10);
+        assert_eq!(r, [0]);
+    }
+
+    #[test]
     fn gamma_damps_anomalously_large_boxes() {
         let vp = camera();
         // Same projected size (twice as large at twice the distance), different extents.
