@@ -140,7 +140,7 @@ impl VirtualScene {
         config: SceneConfig,
         image: (u32, u32),
     ) -> Result<Self, EngineError> {
-        if !(config.bucket >= 1.0) {
+        if config.bucket.is_nan() || config.bucket < 1.0 {
             return Err(EngineError::Config(format!(
                 "the point bucket B must be at least 1 point (got {})",
                 config.bucket
