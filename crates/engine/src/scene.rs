@@ -94,7 +94,7 @@ pub struct VirtualScene {
     feedback_frame: u64,
     last_camera: Option<(Camera, RenderSettings, (u32, u32))>,
     still_frames: u32,
-    /// First frame drawn into the kept framebuffer of the current still view.
+    /// First frame of the current still view (refining towards full detail).
     accumulating_since: Option<u64>,
     total_points: u64,
     slots: u32,
