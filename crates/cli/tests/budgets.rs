@@ -58,8 +58,12 @@ fn streaming_a_larger_store_needs_no_more_memory_than_the_ram_budget() {
             "320",
             "--height",
             "200",
+            // The small store fills this budget (the pool is sized to a store that fits) and
+            // both fill the upload staging: GPU-side memory is alike, only the RAM cache differs.
             "--vram-budget",
-            "96MiB",
+            "10MiB",
+            "--upload-per-frame",
+            "100k",
             "--ram-budget",
             ram,
             "--loaders",
@@ -77,9 +81,9 @@ fn streaming_a_larger_store_needs_no_more_memory_than_the_ram_budget() {
         large_rss / MIB,
         small_rss / MIB
     );
-    // The check can fail: a budget that fits the store lets the cache keep it.
+    // The check can fail: a budget that fits the store lets the cache keep most of it.
     assert!(
-        large_unbounded > large_rss + 48 * MIB,
+        large_unbounded > large_rss + 32 * MIB,
         "with a 1 GiB budget: {} MiB, with 8 MiB: {} MiB",
         large_unbounded / MIB,
         large_rss / MIB
