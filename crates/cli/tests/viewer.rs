@@ -248,11 +248,35 @@ fn viewer_of_a_store_converges_to_the_render_of_it() {
     let budgets = ["--vram-budget", "96MiB", "--ram-budget", "16MiB"];
     assert_view_matches_render_with(&x, &store, &[], &budgets, 0);
     assert_view_matches_render_with(&x, &store, &["--color", "classification"], &budgets, 0);
-    // HQS cannot accumulate: its image is final once every requested point is drawn. It blends
-    // the points within 1 % of the closest depth, so last-bit rounding decides points at that
-    // border: the virtualized scene's pages have other origins than `render`'s (positions
+    // HQS converges like the others (a still view redraws every point up to full detail). It
+    // blends the points within 1 % of the closest depth, so last-bit rounding decides points at
+    // that border: the virtualized scene's pages have other origins than `render`'s (positions
     // relative to them round differently in f32), and its camera is fitted to the store
     // header's bounds (637179.22) where `render` fits it to the dequantized points
     // (637179.2200000001). 1 pixel of 172 800 differs here; closest-point images are exact.
     assert_view_matches_render_with(&x, &store, &["--raster", "hqs"], &budgets, 20);
+    // A store of one pointlet (fewer points than a page) converges too.
+    let las = dir.path().join("few.las");
+    let few = dir.path().join("few.pointlet");
+    ok(&["generate", "--points", "106", "-o", s(&las)]);
+    ok(&["convert", s(&las), "-o", s(&few)]);
+    let shot = dir.path().join("few.png");
+    let err = x.view(&[
+        s(&few),
+        "--frames",
+        "3",
+        "--screenshot",
+        s(&shot),
+        "--width",
+        "160",
+        "--height",
+        "120",
+    ]);
+    assert!(!err.contains("did not converge"), "{err}");
+    let lit = pixels(&shot)
+        .2
+        .chunks_exact(4)
+        .filter(|p| p[..3] != [0, 0, 0])
+        .count();
+    assert!(lit > 0, "the 106 points are drawn");
 }

@@ -5,7 +5,7 @@
 //! corner in NDC and v the viewport in pixels; γ_i = (Σ_j h_j)² / h_i² where h is the AABB's
 //! half diagonal, damping pointlets with anomalous extents. Culled pointlets get l_i = 0; visible
 //! ones at least one pixel's worth. The requested count is l_i / Σl · B, clamped to the
-//! pointlet's size.
+//! pointlet's size, and at least one point for a visible pointlet.
 
 use crate::Aabb;
 
@@ -90,7 +90,15 @@ pub fn requested_points(
     importance
         .iter()
         .zip(counts)
-        .map(|(l, n)| ((l / total * bucket as f64).round() as u64).min(*n as u64) as u32)
+        .map(|(l, n)| {
+            if *l == 0.0 {
+                return 0;
+            }
+            // A point at least: a bucket too small to share out still shows every visible one.
+            ((l / total * bucket as f64).round() as u64)
+                .max(1)
+                .min(*n as u64) as u32
+        })
         .collect()
 }
 
@@ -160,6 +168,24 @@ mod tests {
         // Clamped to the pointlet's size.
         let r = requested_points(&vp, [1000.0, 1000.0], &boxes, &[100; 3], 10_000);
         assert_eq!(&r[..2], &[100, 100]);
+    }
+
+    #[test]
+    fn a_bucket_too_small_to_share_still_gives_every_visible_pointlet_a_point() {
+        let vp = camera();
+        let boxes = [
+            cube([0.0, -5.0, 0.0], 0.5),
+            cube([0.0, 20.0, 0.0], 0.5),
+            cube([0.0, -20.0, 0.0], 0.5),
+        ];
+        for bucket in [0, 1, 10] {
+            let r = requested_points(&vp, [1000.0, 1000.0], &boxes, &[1_000_000, 5, 5], bucket);
+            assert!(r[0] >= 1 && r[1] >= 1, "bucket {bucket}: {r:?}");
+            assert_eq!(r[2], 0, "culled");
+        }
+        // An empty pointlet asks for nothing.
+        let r = requested_points(&vp, [1000.0, 1000.0], &boxes[..1], &[0], 10);
+        assert_eq!(r, [0]);
     }
 
     #[test]

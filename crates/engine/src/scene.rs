@@ -94,12 +94,16 @@ pub struct VirtualScene {
     feedback_frame: u64,
     last_camera: Option<(Camera, RenderSettings, (u32, u32))>,
     still_frames: u32,
-    /// First frame drawn into the kept framebuffer of the current still view.
+    /// First frame of the current still view (refining towards full detail).
     accumulating_since: Option<u64>,
     total_points: u64,
     slots: u32,
+    /// The pool holds every page of the store: no bucket can overfill it.
+    holds_store: bool,
     /// Keep refining a still view to full detail (on by default).
     accumulation: bool,
+    /// First frame of the current still view whose bucket could grow no further.
+    capped_since: Option<u64>,
     /// Points requested and drawn in all, by the latest feedback.
     feedback_totals: (u64, u64),
     /// Some GPU window got new colours in the batch queued this frame.
@@ -136,6 +140,12 @@ impl VirtualScene {
         config: SceneConfig,
         image: (u32, u32),
     ) -> Result<Self, EngineError> {
+        if config.bucket.is_nan() || config.bucket < 1.0 {
+            return Err(EngineError::Config(format!(
+                "the point bucket B must be at least 1 point (got {})",
+                config.bucket
+            )));
+        }
         let store = Arc::new(Store::open(path)?);
         let header = store.header().clone();
         if !crate::source::has_attribute(&header.layout, config.color) {
@@ -170,8 +180,14 @@ impl VirtualScene {
                 pointlet_core::size::format_bytes(fixed + descs.len() as u64 * per_slot)
             )));
         }
-        let slots = slots.min(u32::MAX as u64 / 2) as u32;
+        // Only what the whole store needs when it fits: the budget is a ceiling, not a size.
+        let store_pages: u64 = descs
+            .iter()
+            .map(|d| d.count.div_ceil(config.page_size) as u64)
+            .sum();
+        let slots = slots.min(store_pages).min(u32::MAX as u64 / 2) as u32;
         let paged = PagedCloud::new(ctx, descs.clone(), config.encoding, config.page_size, slots)?;
+        let slots = paged.slots;
         let source = StoreSource::new(store.clone(), config.color, config.encoding)?;
         let cache = RamCache::new(
             source,
@@ -221,8 +237,10 @@ impl VirtualScene {
             accumulating_since: None,
             total_points: header.points,
             slots,
+            holds_store: slots as u64 == store_pages,
             config,
             accumulation: true,
+            capped_since: None,
             feedback_totals: (0, 0),
             recoloured: false,
             complete_at: None,
@@ -367,11 +385,24 @@ impl VirtualScene {
 
     /// The bucket of a moving frame: the configured one, within what the pool holds.
     fn moving_bucket(&self) -> f64 {
+        if self.holds_store {
+            return self.config.bucket;
+        }
         // Asking for more than the pool holds only starves pointlets at random; within it the
         // LoD shares points out fairly. Half a page per pointlet is lost to rounding.
         let ps = self.config.page_size as f64;
         let pool = self.slots as f64 * ps - 0.5 * ps * self.counts.len() as f64;
         self.config.bucket.min(pool.max(ps))
+    }
+
+    /// The largest bucket whose requests all fit the pool at once, however they round to pages
+    /// (each pointlet at most one page beyond its share); None when the pool holds the store.
+    fn single_pass_cap(&self) -> Option<f64> {
+        if self.holds_store {
+            return None;
+        }
+        let spare = self.slots.saturating_sub(self.counts.len() as u32) as f64;
+        Some((spare * self.config.page_size as f64).max(1.0))
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -423,9 +454,12 @@ impl VirtualScene {
         // Pages recoloured by the batch queued last frame may already be in the kept
         // framebuffer with their old colours: accumulation starts over, as after a camera move.
         let recoloured = std::mem::take(&mut self.recoloured);
-        let accumulate =
-            still && !recoloured && self.accumulation && settings.variant.accumulates();
-        if accumulate {
+        // A still view grows the bucket to full detail. Closest-point variants add each
+        // frame's new points to the kept framebuffer; the others (HQS) redraw every resident
+        // point each frame, so their requests must fit the pool at once.
+        let refine = still && !recoloured && self.accumulation;
+        let accumulate = refine && settings.variant.accumulates();
+        if refine {
             self.still_frames += 1;
             if self.accumulating_since.is_none() {
                 self.accumulating_since = Some(self.paged.frames() + 1);
@@ -434,12 +468,21 @@ impl VirtualScene {
             self.still_frames = 0;
             self.accumulating_since = None;
         }
-        let bucket = if accumulate {
+        let pool_cap = self.single_pass_cap().filter(|_| !accumulate);
+        let bucket = if refine {
             let growth = 2f64.powi(self.still_frames.min(60) as i32);
-            (self.config.bucket * growth).min(self.total_points as f64 * 1048576.0)
+            let cap = pool_cap.unwrap_or(self.total_points as f64 * 1048576.0);
+            (self.config.bucket * growth).min(cap)
         } else {
             self.moving_bucket()
         };
+        // At the pool's cap the bucket cannot grow: the view is final once its requests are
+        // drawn, though some fall short of full detail.
+        if refine && pool_cap.is_some_and(|cap| bucket >= cap) {
+            self.capped_since.get_or_insert(self.paged.frames() + 1);
+        } else {
+            self.capped_since = None;
+        }
         let handoff = std::time::Instant::now();
         if let Some(fb) = self.paged.poll_feedback(ctx) {
             self.feedback_totals = (
@@ -453,7 +496,7 @@ impl VirtualScene {
         let mut report = FrameReport {
             frame: self.paged.frames() + 1,
             bucket,
-            accumulating: accumulate,
+            accumulating: refine,
             ..Default::default()
         };
         // Queue the step that finished, then start the next one on the newest feedback.
@@ -481,6 +524,7 @@ impl VirtualScene {
                 accumulate,
                 drawn_valid,
                 check_from: self.accumulating_since,
+                capped_from: self.capped_since,
                 batch,
             })?;
             self.in_flight = true;

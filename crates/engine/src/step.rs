@@ -39,6 +39,9 @@ pub(crate) struct Tick {
     pub drawn_valid: bool,
     /// Check convergence when the feedback is at least this recent.
     pub check_from: Option<u64>,
+    /// From this feedback frame on the bucket was at its cap: drawing every request in full
+    /// is complete even where a request is short of the pointlet's size.
+    pub capped_from: Option<u64>,
     /// An empty batch to pack into (its allocations are reused).
     pub batch: PageBatch,
 }
@@ -141,13 +144,15 @@ impl ResidencyState {
             accumulate,
             drawn_valid,
             check_from,
+            capped_from,
             mut batch,
         } = tick;
         self.requested = requested;
         self.drawn = drawn;
         let pool = Arc::clone(&self.pool);
         pool.install(|| {
-            if check_from.is_some_and(|since| feedback_frame >= since) && self.complete() {
+            let capped = capped_from.is_some_and(|since| feedback_frame >= since);
+            if check_from.is_some_and(|since| feedback_frame >= since) && self.complete(capped) {
                 out.complete_at = Some(feedback_frame);
             }
             out.recoloured = self.update(frame, (accumulate, drawn_valid), &mut batch, report);
@@ -171,15 +176,16 @@ impl ResidencyState {
         }
     }
 
-    /// Every requested pointlet is resident and drawn in full, in the current colours.
-    fn complete(&self) -> bool {
+    /// Every requested pointlet is resident and drawn in full (or, with `capped`, up to its
+    /// request), in the current colours.
+    fn complete(&self, capped: bool) -> bool {
         let epoch = self.epoch;
         self.requested
             .par_iter()
             .zip(self.drawn.par_iter())
             .zip(self.counts.par_iter())
             .zip(self.gpu_epoch.par_iter())
-            .all(|(((r, d), c), e)| *r == 0 || (r == c && d >= r && *e == epoch))
+            .all(|(((r, d), c), e)| *r == 0 || ((r == c || capped) && d >= r && *e == epoch))
     }
 
     /// One step's work; true when some GPU window got new colours.

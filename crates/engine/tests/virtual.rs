@@ -5,8 +5,8 @@ use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::Camera;
 use pointlet_engine::{target_bytes, SceneConfig, VirtualScene};
 use pointlet_gpu::{
-    AdapterRequest, GpuContext, PointEncoding, RasterVariant, RenderSettings, RenderTarget,
-    Renderer,
+    AdapterRequest, GpuContext, PagedCloud, PointEncoding, PointletDesc, RasterVariant,
+    RenderSettings, RenderTarget, Renderer,
 };
 use pointlet_io::generate::{SceneConfig as GenConfig, SceneGenerator};
 use pointlet_io::PointReader;
@@ -23,12 +23,17 @@ fn context() -> GpuContext {
 }
 
 fn build_store(path: &Path, points: u64) {
+    build_store_of(path, points, 300);
+}
+
+/// A store of about `pointlets` pointlets.
+fn build_store_of(path: &Path, points: u64, pointlets: u64) {
     let generator = SceneGenerator::new(GenConfig { points, seed: 11 });
     let meta = generator.meta();
     let mut builder = StoreBuilder::create(
         path,
         BuildConfig {
-            target_pointlets: 300,
+            target_pointlets: pointlets,
             ..Default::default()
         },
         &meta,
@@ -109,7 +114,7 @@ fn budgets_far_below_the_store_still_converge_to_the_full_detail_image() {
 
     // Budgets: RAM a twentieth of the store file, VRAM room for a fifth of the points.
     let ram_budget = store_bytes / 20;
-    let slot = pointlet_gpu::PagedCloud::slot_bytes(PointEncoding::Compact8, 256);
+    let slot = PagedCloud::slot_bytes(PointEncoding::Compact8, 256);
     let vram_budget = target_bytes(W, H) + 300 * 1024 + (points / 5 / 256) * slot;
     let mut scene = VirtualScene::open(
         &ctx,
@@ -313,5 +318,203 @@ fn picking_reads_the_point_and_recolouring_replaces_only_colours() {
     assert!(
         scene.set_color(ColorMode::GpsTime).is_ok(),
         "the scene has GPS time"
+    );
+}
+
+/// Renders `camera` still with `variant` until convergence; returns the image and the report.
+fn converge_with(
+    ctx: &GpuContext,
+    scene: &mut VirtualScene,
+    variant: RasterVariant,
+    camera: &Camera,
+    limit: u32,
+) -> (Vec<u8>, pointlet_engine::FrameReport) {
+    let mut renderer = Renderer::new(ctx);
+    let mut target = RenderTarget::new(ctx, W, H).expect("target");
+    let settings = RenderSettings {
+        variant,
+        ..Default::default()
+    };
+    for _ in 0..limit {
+        let report = scene
+            .frame(ctx, &mut renderer, camera, &settings, &mut target)
+            .expect("frame");
+        if report.converged {
+            return (target.read_rgba(ctx).expect("readback"), report);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    panic!("{} did not converge within {limit} frames", variant.name());
+}
+
+fn lit(image: &[u8]) -> usize {
+    image.chunks(4).filter(|p| p[..3] != [0, 0, 0]).count()
+}
+
+fn differing(a: &[u8], b: &[u8]) -> usize {
+    a.chunks(4).zip(b.chunks(4)).filter(|(p, q)| p != q).count()
+}
+
+#[test]
+fn stores_of_one_pointlet_and_a_few_points_draw_in_full() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    // One pointlet (its feedback is smaller than a GPU buffer's minimum), one point, exactly a
+    // page, a page and a point, several pointlets.
+    for points in [1u64, 106, 256, 257, 2000] {
+        let path = dir.path().join(format!("{points}.pointlet"));
+        build_store(&path, points);
+        let mut scene =
+            VirtualScene::open(&ctx, &path, SceneConfig::default(), (W, H)).expect("open");
+        let cam = Camera::overview(&scene.bounds(), 60.0);
+        let (image, report) =
+            converge_with(&ctx, &mut scene, RasterVariant::ReduceEarlyZ, &cam, 200);
+        assert_eq!(report.drawn_points, points, "{points} points drawn");
+        assert!(lit(&image) > 0, "{points} points: the image is black");
+    }
+}
+
+#[test]
+fn a_tiny_bucket_draws_every_visible_pointlet_and_a_zero_bucket_is_refused() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("tiny.pointlet");
+    build_store(&path, 60_000);
+    let open = |bucket: f64| {
+        VirtualScene::open(
+            &ctx,
+            &path,
+            SceneConfig {
+                bucket,
+                ..Default::default()
+            },
+            (W, H),
+        )
+    };
+    let mut full = open(1e12).expect("open");
+    let cam = Camera::overview(&full.bounds(), 60.0);
+    let (expected, _) = converge_with(&ctx, &mut full, RasterVariant::ReduceEarlyZ, &cam, 200);
+    let pointlets = full.store().pointlets().len() as u64;
+    drop(full);
+    for bucket in [1.0, 10.0] {
+        // The LoD image of the bucket alone: a point of every pointlet in view.
+        let mut scene = open(bucket).expect("open");
+        scene.set_accumulation(false);
+        let mut renderer = Renderer::new(&ctx);
+        let mut target = RenderTarget::new(&ctx, W, H).expect("target");
+        let mut drawn = 0;
+        for _ in 0..100 {
+            let r = scene
+                .frame(&ctx, &mut renderer, &cam, &settings(), &mut target)
+                .expect("frame");
+            assert!(
+                !r.converged,
+                "bucket {bucket}: the LoD image is not full detail"
+            );
+            drawn = r.drawn_points;
+            if drawn >= pointlets {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        assert!(
+            drawn >= pointlets && drawn < 60_000,
+            "bucket {bucket}: {drawn} points drawn of {pointlets} pointlets in view"
+        );
+        assert!(lit(&target.read_rgba(&ctx).expect("readback")) > 0);
+        // A still camera converges to full detail, never to a black image.
+        scene.set_accumulation(true);
+        let (got, _) = converge_with(&ctx, &mut scene, RasterVariant::ReduceEarlyZ, &cam, 200);
+        assert_eq!(differing(&got, &expected), 0, "bucket {bucket}");
+    }
+    let err = open(0.0).err().expect("a zero bucket is refused");
+    assert!(err.to_string().contains("bucket"), "{err}");
+}
+
+#[test]
+fn variants_that_redraw_every_frame_converge_to_the_full_detail_image() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("hqs.pointlet");
+    let points = 60_000u64;
+    // Pointlets of several pages, so a pool of a page per pointlet and some more is short.
+    build_store_of(&path, points, 30);
+    let open = |bucket: f64, vram_budget: u64| {
+        VirtualScene::open(
+            &ctx,
+            &path,
+            SceneConfig {
+                bucket,
+                vram_budget,
+                ..Default::default()
+            },
+            (W, H),
+        )
+        .expect("open")
+    };
+    // HQS and the 32-bit two-pass variant cannot add points to a kept framebuffer.
+    for variant in [
+        RasterVariant::Hqs,
+        RasterVariant::Hqs1r,
+        RasterVariant::AtomicMin32,
+    ] {
+        let mut full = open(1e12, 2 << 30);
+        let cam = Camera::overview(&full.bounds(), 60.0);
+        let (expected, report) = converge_with(&ctx, &mut full, variant, &cam, 200);
+        assert_eq!(report.drawn_points, points);
+        // From a bucket of a thirtieth of the store, the still camera reaches full detail.
+        let mut scene = open(2_000.0, 2 << 30);
+        let (got, report) = converge_with(&ctx, &mut scene, variant, &cam, 200);
+        assert_eq!(report.drawn_points, points, "{}", variant.name());
+        assert_eq!(differing(&got, &expected), 0, "{}", variant.name());
+        // A pool that cannot hold the view at once: final with as many points as fit.
+        let descs: Vec<PointletDesc> = full
+            .store()
+            .pointlets()
+            .iter()
+            .map(|p| PointletDesc {
+                aabb: p.aabb,
+                count: p.count,
+            })
+            .collect();
+        let slot = PagedCloud::slot_bytes(PointEncoding::Compact8, 256);
+        let tables = PagedCloud::overhead_bytes(&descs, 256) + target_bytes(W, H);
+        // 40 pages beyond one per pointlet: requests of 10 240 points fit at once.
+        let mut small = open(2_000.0, tables + (descs.len() as u64 + 40) * slot);
+        let (got, report) = converge_with(&ctx, &mut small, variant, &cam, 200);
+        assert!(
+            report.drawn_points > 2_000 && report.drawn_points < points,
+            "{}: {} points drawn",
+            variant.name(),
+            report.drawn_points
+        );
+        assert!(lit(&got) > 0);
+    }
+}
+
+#[test]
+fn the_page_pool_holds_the_store_not_the_whole_budget() {
+    let ctx = context();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("pool.pointlet");
+    let points = 60_000u64;
+    build_store(&path, points);
+    let scene = VirtualScene::open(&ctx, &path, SceneConfig::default(), (W, H)).expect("open");
+    let pages: u64 = scene
+        .store()
+        .pointlets()
+        .iter()
+        .map(|p| p.count.div_ceil(256) as u64)
+        .sum();
+    assert_eq!(
+        scene.slots() as u64,
+        pages,
+        "a page slot per page of the store"
+    );
+    // 60 000 points of 12 bytes, their tables: well under a percent of the 2 GiB budget.
+    assert!(
+        scene.gpu_bytes() < 4 << 20,
+        "{} bytes allocated for {points} points",
+        scene.gpu_bytes()
     );
 }

@@ -1,13 +1,13 @@
 // Level of detail over pointlets and the frame's draw list (virtualized paper §III-B, eq. 2–3).
 // `importance`: one thread per pointlet: frustum-cull the AABB, project its centre and max
 // corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU), workgroup partial
-// sums of l. `total`: Σl. `build`: requested_i = min(count_i, round(l_i / Σl · B)) (a prefix of
-// the pointlet's shuffled points), the pointlet's camera-relative origin from double-single
-// (hi + lo f32) coordinates, and one draw entry per resident page of the range to draw — the
-// whole resident prefix up to the request, or when accumulating (camera still) only the points
-// not drawn yet. Entries go to the list of the chunk holding the page; `finalize` turns the
-// counts into indirect dispatch sizes. Replaces the paper's per-frame buffer compaction: only
-// pages change, and drawing reads them where they are.
+// sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
+// visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
+// origin from double-single (hi + lo f32) coordinates, and one draw entry per resident page of
+// the range to draw — the whole resident prefix up to the request, or when accumulating (camera
+// still) only the points not drawn yet. Entries go to the list of the chunk holding the page;
+// `finalize` turns the counts into indirect dispatch sizes. Replaces the paper's per-frame
+// buffer compaction: only pages change, and drawing reads them where they are.
 
 struct Pointlet {
     origin_hi: vec3<f32>,
@@ -160,8 +160,9 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = pointlets[i];
     let total = importance[params.pointlet_count + params.partial_count];
     var req = 0u;
-    if total > 0.0 {
-        req = min(p.count, u32(round(importance[i] / total * params.bucket)));
+    if total > 0.0 && importance[i] > 0.0 {
+        // A point at least: a bucket too small to share out still shows every visible pointlet.
+        req = min(p.count, max(1u, u32(round(importance[i] / total * params.bucket))));
     }
     feedback[i] = req;
 

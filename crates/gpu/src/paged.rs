@@ -531,7 +531,9 @@ impl PagedCloud {
             .position(|r| r.state.load(Ordering::Acquire) == FREE)
         {
             let r = &mut self.readbacks[k];
-            enc.copy_buffer_to_buffer(&self.feedback, 0, &r.buffer, 0, r.buffer.size());
+            // Buffers are at least 16 bytes: copy and map only the feedback's 2n words.
+            let bytes = self.pointlets.len() as u64 * 8;
+            enc.copy_buffer_to_buffer(&self.feedback, 0, &r.buffer, 0, bytes);
             r.state.store(IN_FLIGHT, Ordering::Release);
             r.frame = self.frame;
             self.pending_map = Some(k);
@@ -544,11 +546,12 @@ impl PagedCloud {
         if let Some(k) = self.pending_map.take() {
             let r = &self.readbacks[k];
             let state = r.state.clone();
-            r.buffer
-                .slice(..)
-                .map_async(wgpu::MapMode::Read, move |result| {
+            r.buffer.slice(..self.pointlets.len() as u64 * 8).map_async(
+                wgpu::MapMode::Read,
+                move |result| {
                     state.store(if result.is_ok() { READY } else { FREE }, Ordering::Release);
-                });
+                },
+            );
         }
     }
 
@@ -563,7 +566,7 @@ impl PagedCloud {
             }
             let data = r
                 .buffer
-                .slice(..)
+                .slice(..n as u64 * 8)
                 .get_mapped_range()
                 .ok()
                 .map(|v| bytemuck::pod_collect_to_vec::<u8, u32>(&v));

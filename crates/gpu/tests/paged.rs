@@ -120,7 +120,7 @@ fn gpu_lod_matches_the_cpu_reference() {
         PagedCloud::new(&ctx, descs.clone(), PointEncoding::Full16, 256, 64).expect("paged");
     let mut target = RenderTarget::new(&ctx, W, H).expect("target");
     let mut renderer = Renderer::new(&ctx);
-    for bucket in [1_000.0, 20_000.0, 1e9] {
+    for bucket in [1.0, 1_000.0, 20_000.0, 1e9] {
         frame(
             &ctx,
             &mut renderer,
@@ -158,7 +158,48 @@ fn gpu_lod_matches_the_cpu_reference() {
         );
         assert_eq!(&gpu[gpu.len() - 2..], &[0, 0], "culled boxes get nothing");
         assert_eq!(&cpu[cpu.len() - 2..], &[0, 0]);
+        // However small the bucket, every pointlet in view shows a point.
+        let cam_vp = cam.view_projection(W as f64 / H as f64);
+        for (i, (d, g)) in descs.iter().zip(&gpu).enumerate() {
+            let visible = !pointlet_core::lod::outside_frustum(&cam_vp, &d.aabb);
+            assert_eq!(
+                *g > 0,
+                visible,
+                "bucket {bucket}, pointlet {i}: {g} requested"
+            );
+        }
     }
+}
+
+#[test]
+fn a_single_pointlet_gets_its_feedback() {
+    let ctx = context();
+    // One pointlet's feedback (2 words) is smaller than a GPU buffer's minimum size.
+    let set = layered_scene(5, false).set;
+    let k = 100;
+    let descs = pointlets(&set, k)[..1].to_vec();
+    let mut paged = PagedCloud::new(&ctx, descs, PointEncoding::Full16, 256, 1).expect("paged");
+    make_resident(&ctx, &mut paged, &set, k);
+    let mut target = RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = Renderer::new(&ctx);
+    let view = PagedView {
+        bucket: 1e9,
+        accumulate: false,
+    };
+    let cam = Camera::overview(&paged.pointlets()[0].aabb, 60.0);
+    frame(
+        &ctx,
+        &mut renderer,
+        &mut paged,
+        &mut target,
+        RasterVariant::EarlyZ,
+        view,
+        &cam,
+    );
+    let fb = paged
+        .wait_feedback(&ctx)
+        .expect("the feedback of one pointlet");
+    assert_eq!((fb.requested, fb.drawn), (vec![100], vec![100]));
 }
 
 #[test]

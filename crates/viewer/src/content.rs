@@ -148,16 +148,9 @@ impl Content {
                 let report = s
                     .frame(ctx, renderer, camera, settings, target)
                     .map_err(|e| ViewerError::Gpu(e.to_string()))?;
-                // Variants that cannot accumulate (HQS) never reach the engine's full-detail
-                // image; theirs is final once every point the LoD asks for is drawn and
-                // nothing is left to load.
-                let complete = !settings.variant.accumulates()
-                    && report.requested_points > 0
-                    && report.drawn_points >= report.requested_points
-                    && report.cache.queued == 0;
                 Ok(Drawn {
                     points: report.drawn_points,
-                    converged: report.converged || complete,
+                    converged: report.converged,
                     report: Some(report),
                 })
             }
