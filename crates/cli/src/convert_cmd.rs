@@ -33,6 +33,7 @@ pub struct Args {
 pub const BATCH: usize = 1 << 20;
 
 pub fn run(args: Args) -> Result<()> {
+    crate::signals::remove_temporaries_on_signals()?;
     let files = pointlet_io::expand_inputs(&args.inputs)?;
     if files.is_empty() {
         bail!("no supported point files among the inputs");
