@@ -119,7 +119,12 @@ pub fn run(args: Args) -> Result<()> {
         copy.map(|g| format!("{g:.1} GB/s"))
             .unwrap_or_else(|| "n/a".into())
     );
-    let scene = crate::scene::load(args.input.as_deref(), ColorMode::Rgb, args.points)?;
+    let scene = crate::scene::load(
+        args.input.as_deref(),
+        &crate::load::ReadArgs::default(),
+        ColorMode::Rgb,
+        args.points,
+    )?;
     let views: [(&'static str, Camera); 2] = [
         ("overview", Camera::overview(&scene.bounds, 60.0)),
         ("closeup", Camera::closeup(&scene.bounds, 60.0)),

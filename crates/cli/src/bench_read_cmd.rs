@@ -10,19 +10,20 @@ pub struct Args {
     /// Input files or folders.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let files = pointlet_io::expand_inputs(&args.inputs)?;
+    let readers = crate::convert_cmd::open_inputs(&args.inputs, &args.read)?;
     let started = Instant::now();
     let mut points = 0u64;
     // Touch the decoded values so the work cannot be skipped.
     let mut checksum = 0f64;
-    for f in &files {
-        let mut r = pointlet_io::open(f).with_context(|| format!("opening {}", f.display()))?;
+    for mut r in readers {
         while let Some(b) = r
             .read_batch(crate::convert_cmd::BATCH)
-            .with_context(|| format!("reading {}", f.display()))?
+            .with_context(|| format!("reading {}", r.path().display()))?
         {
             points += b.len() as u64;
             if let Some(p) = b.xyz.last() {

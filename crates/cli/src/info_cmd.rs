@@ -15,14 +15,16 @@ pub struct Args {
     /// For stores: verify every checksum (reads the whole file).
     #[arg(long)]
     pub verify: bool,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
+        args.read.refuse_for_store(&args.input)?;
         store_info(&args)?
     } else {
-        let reader = pointlet_io::open(&args.input)
-            .with_context(|| format!("opening {}", args.input.display()))?;
+        let reader = crate::load::open_point_file(&args.input, &args.read)?;
         file_info(reader.meta())
     };
     if args.json {

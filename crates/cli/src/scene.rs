@@ -18,7 +18,12 @@ pub struct Scene {
 }
 
 /// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `mode`.
-pub fn load(input: Option<&Path>, mode: ColorMode, demo_points: u64) -> Result<Scene> {
+pub fn load(
+    input: Option<&Path>,
+    read: &crate::load::ReadArgs,
+    mode: ColorMode,
+    demo_points: u64,
+) -> Result<Scene> {
     match input {
         Some(p) if crate::load::is_store_path(p) => {
             let store = pointlet_store::Store::open(p)
@@ -34,8 +39,7 @@ pub fn load(input: Option<&Path>, mode: ColorMode, demo_points: u64) -> Result<S
             acc.finish(p.display().to_string())
         }
         Some(p) => {
-            let reader =
-                pointlet_io::open(p).with_context(|| format!("opening {}", p.display()))?;
+            let reader = crate::load::open_point_file(p, read)?;
             read_all(reader, mode, p.display().to_string())
         }
         None => {
