@@ -57,7 +57,7 @@ pub fn open_inputs(
         crate::load::print_notes(r.as_ref());
     }
     if readers.is_empty() {
-        bail!("no point files among the inputs");
+        bail!("no supported point files among the inputs");
     }
     Ok(readers)
 }

@@ -579,18 +579,8 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
             })
         }
     };
-    let quantization = fit_quantization(&bounds, decimals).map_err(|axis| {
-        IoError::invalid(
-            path,
-            format!(
-                "the vertices span {:e} to {:e} on {}: too far apart for 32-bit integer \
-                 coordinates at any scale",
-                bounds.min[axis],
-                bounds.max[axis],
-                ["x", "y", "z"][axis]
-            ),
-        )
-    })?;
+    // None when 32-bit integers cannot span the extent even at 0.01: the merge says so.
+    let quantization = fit_quantization(&bounds, decimals);
     let colour_scale = match colour_ty {
         Some(Ty::U8 | Ty::I8) => Scale::mul(257.0),
         Some(t) if t.is_float() => colour.colour_scale(),
@@ -605,7 +595,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         format: format!("PLY ({encoding})"),
         point_count: count,
         bounds,
-        quantization: Some(quantization),
+        quantization,
         layout: PointLayout {
             rgb: colour_ty.is_some(),
             ..Default::default()

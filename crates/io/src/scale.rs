@@ -3,12 +3,15 @@
 //! Per axis the step is the power of ten the data's own precision calls for (the decimals a
 //! text file writes; for binary floats, the spacing of the values at the largest magnitude),
 //! coarsened by powers of ten only as far as the extent needs to fit the store's 32-bit
-//! integers. A finer step than the data holds would keep nothing more.
+//! integers, and not beyond 0.01 (or the data's own step, when coarser). A finer step than the
+//! data holds would keep nothing more.
 
 use pointlet_core::{Aabb, Quantization};
 
 /// The finest step chosen from the data: 10^-12 (a float's precision needs no finer one).
 pub const MAX_DECIMALS: i32 = 12;
+/// The coarsest step the extent may force on data written more finely: 0.01.
+const COARSEST_DECIMALS: i32 = 2;
 
 /// 10^-decimals, correctly rounded (3 gives exactly the literal 0.001).
 pub fn decimal_step(decimals: i32) -> f64 {
@@ -75,23 +78,24 @@ pub fn quantization_with_scale(bounds: &Aabb, scale: f64) -> Result<Quantization
 }
 
 /// Per axis the step of `decimals[axis]`, coarsened by powers of ten until the bounds fit;
-/// `Err(axis)` for an axis that fits at no step (only for magnitudes near f64's limit).
-pub fn fit_quantization(bounds: &Aabb, decimals: [i32; 3]) -> Result<Quantization, usize> {
+/// `None` when an axis does not fit even at 0.01 (or the data's own step, when coarser): the
+/// merge of inputs then says so.
+pub fn fit_quantization(bounds: &Aabb, decimals: [i32; 3]) -> Option<Quantization> {
     let mut q = Quantization {
         scale: [1.0; 3],
         offset: [0.0; 3],
     };
     for axis in 0..3 {
-        let found = (-308..=decimals[axis]).rev().find_map(|d| {
+        let coarsest = decimals[axis].min(COARSEST_DECIMALS);
+        let (step, offset) = (coarsest..=decimals[axis]).rev().find_map(|d| {
             let step = decimal_step(d);
             let offset = centred_offset(bounds, axis, step);
             fits(bounds, axis, step, offset).then_some((step, offset))
-        });
-        let (step, offset) = found.ok_or(axis)?;
+        })?;
         q.scale[axis] = step;
         q.offset[axis] = offset;
     }
-    Ok(q)
+    Some(q)
 }
 
 fn centred_offset(bounds: &Aabb, axis: usize, scale: f64) -> f64 {
@@ -145,6 +149,16 @@ mod tests {
             assert!(!fits(&b, axis, q.scale[axis] / 10.0, q.offset[axis]) || axis == 2);
         }
         assert_eq!(quantization_with_scale(&b, 1e-9), Err(1));
+        let huge = Aabb {
+            min: [0.0; 3],
+            max: [1e300, 1.0, 1.0],
+        };
+        assert_eq!(fit_quantization(&huge, [12; 3]), None, "not beyond 0.01");
+        let km = Aabb {
+            min: [0.0; 3],
+            max: [1e7, 1.0, 1.0],
+        };
+        assert_eq!(fit_quantization(&km, [6; 3]).unwrap().scale[0], 0.01);
         assert_eq!(quantization_with_scale(&b, 1e-6).unwrap().scale, [1e-6; 3]);
     }
 }

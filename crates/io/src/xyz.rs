@@ -640,18 +640,8 @@ pub fn open(path: &Path, options: &ReadOptions) -> Result<Box<dyn PointReader>, 
             "no points: the file holds no data lines",
         ));
     }
-    let quantization = fit_quantization(&bounds, decimals).map_err(|axis| {
-        IoError::invalid(
-            path,
-            format!(
-                "the points span {:e} to {:e} on {}: too far apart for 32-bit integer \
-                 coordinates at any scale",
-                bounds.min[axis],
-                bounds.max[axis],
-                ["x", "y", "z"][axis]
-            ),
-        )
-    })?;
+    // None when 32-bit integers cannot span the extent even at 0.01: the merge says so.
+    let quantization = fit_quantization(&bounds, decimals);
     let layout = PointLayout {
         rgb: columns.has(Field::Red),
         gps_time: columns.has(Field::GpsTime),
@@ -667,7 +657,7 @@ pub fn open(path: &Path, options: &ReadOptions) -> Result<Box<dyn PointReader>, 
         format: format!("text ({sep}-separated)"),
         point_count: count,
         bounds,
-        quantization: Some(quantization),
+        quantization,
         layout,
         las_point_format: None,
         vlrs: Vec::new(),
