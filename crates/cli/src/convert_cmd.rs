@@ -49,7 +49,8 @@ pub fn open_inputs(
     inputs: &[PathBuf],
     read: &crate::load::ReadArgs,
 ) -> Result<Vec<Box<dyn PointReader>>> {
-    let (readers, skipped) = pointlet_io::open_inputs(inputs, &read.options())?;
+    let pointlet_io::Inputs { readers, skipped } =
+        pointlet_io::open_inputs(inputs, &read.options())?;
     for s in &skipped {
         eprintln!("note: skipped {}: {}", s.path.display(), s.reason);
     }

@@ -198,13 +198,17 @@ pub fn list_inputs(inputs: &[PathBuf]) -> Result<(Vec<InputFile>, Vec<Skipped>),
     Ok((files, skipped))
 }
 
+/// The opened inputs of a merge.
+pub struct Inputs {
+    pub readers: Vec<Box<dyn PointReader>>,
+    /// Files of folders left out, sorted by path.
+    pub skipped: Vec<Skipped>,
+}
+
 /// The readers of every input, as [`list_inputs`] lists them. A file found in a folder that
 /// holds no points (or, for text, is no point file at all) is skipped; the same file named on
 /// its own is an error, as is any other error.
-pub fn open_inputs(
-    inputs: &[PathBuf],
-    options: &ReadOptions,
-) -> Result<(Vec<Box<dyn PointReader>>, Vec<Skipped>), IoError> {
+pub fn open_inputs(inputs: &[PathBuf], options: &ReadOptions) -> Result<Inputs, IoError> {
     let (files, mut skipped) = list_inputs(inputs)?;
     let mut readers = Vec::with_capacity(files.len());
     for f in files {
@@ -217,7 +221,8 @@ pub fn open_inputs(
             Err(e) => return Err(e),
         }
     }
-    Ok((readers, skipped))
+    skipped.sort_by(|a, b| a.path.cmp(&b.path));
+    Ok(Inputs { readers, skipped })
 }
 
 fn walk(dir: &Path, found: &mut Vec<PathBuf>, skipped: &mut Vec<Skipped>) -> Result<(), IoError> {

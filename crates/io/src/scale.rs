@@ -85,9 +85,9 @@ pub fn fit_quantization(bounds: &Aabb, decimals: [i32; 3]) -> Option<Quantizatio
         scale: [1.0; 3],
         offset: [0.0; 3],
     };
-    for axis in 0..3 {
-        let coarsest = decimals[axis].min(COARSEST_DECIMALS);
-        let (step, offset) = (coarsest..=decimals[axis]).rev().find_map(|d| {
+    for (axis, finest) in decimals.into_iter().enumerate() {
+        let coarsest = finest.min(COARSEST_DECIMALS);
+        let (step, offset) = (coarsest..=finest).rev().find_map(|d| {
             let step = decimal_step(d);
             let offset = centred_offset(bounds, axis, step);
             fits(bounds, axis, step, offset).then_some((step, offset))

@@ -422,7 +422,7 @@ fn folders_skip_what_is_not_a_point_cloud() {
     let mut las = std::fs::read(data("simple.las")).expect("read");
     las[107..131].fill(0);
     std::fs::write(root.join("zero.las"), las).expect("write");
-    let (readers, skipped) =
+    let pointlet_io::Inputs { readers, skipped } =
         pointlet_io::open_inputs(&[root.to_path_buf()], &Default::default()).expect("open");
     assert_eq!(readers.len(), 1);
     assert_eq!(readers[0].path(), root.join("a.xyz"));
@@ -444,9 +444,9 @@ fn folders_skip_what_is_not_a_point_cloud() {
     assert!(skipped.iter().all(|s| !s.reason.is_empty()));
     // Named on their own, the same files are errors.
     for f in ["readme.txt", "empty.xyz", "zero.las"] {
-        let e = pointlet_io::open_inputs(&[root.join(f)], &Default::default())
-            .err()
-            .unwrap_or_else(|| panic!("{f} alone"));
+        let Err(e) = pointlet_io::open_inputs(&[root.join(f)], &Default::default()) else {
+            panic!("{f} alone");
+        };
         assert!(e.to_string().contains(f), "{e}");
     }
     // A broken point file in a folder still fails the merge.
