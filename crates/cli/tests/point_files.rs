@@ -184,8 +184,12 @@ fn columns_flag_names_text_columns_in_every_command_that_reads_them() {
         .any(|a| a == "rgb"));
     ok(&["convert", s(&p), "-o", s(&store), columns[0], columns[1]]);
     ok(&["metrics", s(&p), columns[0], columns[1], "--pointlets", "1"]);
+    for cmd in ["info", "view", "metrics"] {
+        fails(&[cmd, s(&store), columns[0], columns[1]], &["is a store"]);
+    }
+    let png = dir.path().join("r.png");
     fails(
-        &["info", s(&store), columns[0], columns[1]],
+        &["render", s(&store), "-o", s(&png), columns[0], columns[1]],
         &["is a store"],
     );
     // A header line naming attributes without a column: each skipped with a note.
