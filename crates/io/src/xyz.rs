@@ -161,7 +161,8 @@ enum Field {
     ScanAngle,
 }
 
-const FIELDS: usize = 15;
+/// Values per [`Record`]: one per [`Field`].
+const FIELDS: usize = Field::ScanAngle as usize + 1;
 
 /// The names `--columns` accepts, for its error message.
 const KNOWN_NAMES: &str = "x, y, z, intensity (i), red green blue (r g b), rf gf bf, nir, \
@@ -195,6 +196,16 @@ impl Field {
             Field::Classification | Field::UserData => Some(255.0),
             Field::ReturnNumber | Field::NumberOfReturns => Some(15.0),
             Field::PointSourceId => Some(65535.0),
+            _ => None,
+        }
+    }
+
+    /// The axis of a coordinate.
+    fn axis(self) -> Option<usize> {
+        match self {
+            Field::X => Some(0),
+            Field::Y => Some(1),
+            Field::Z => Some(2),
             _ => None,
         }
     }
@@ -397,17 +408,6 @@ impl Columns {
                 self.slots.len()
             )),
             _ => Ok(r),
-        }
-    }
-}
-
-impl Field {
-    fn axis(self) -> Option<usize> {
-        match self {
-            Field::X => Some(0),
-            Field::Y => Some(1),
-            Field::Z => Some(2),
-            _ => None,
         }
     }
 }
