@@ -92,7 +92,12 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     // Read before the copy kernel is timed: a bad input fails at once.
-    let scene = crate::scene::load(args.input.as_deref(), None, args.points)?;
+    let scene = crate::scene::load(
+        args.input.as_deref(),
+        &crate::load::ReadArgs::default(),
+        None,
+        args.points,
+    )?;
     let variants: Vec<RasterVariant> = if args.variants.is_empty() {
         RasterVariant::ALL.to_vec()
     } else {

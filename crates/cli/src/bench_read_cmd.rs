@@ -1,7 +1,7 @@
 //! `pointlet bench-read`: decode inputs and do nothing else — the baseline `convert` is
 //! measured against (conversion should cost at most 2× decoding).
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -10,22 +10,17 @@ pub struct Args {
     /// Input files or folders.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let files = pointlet_io::expand_inputs(&args.inputs)?;
-    if files.is_empty() {
-        bail!(
-            "no supported point files in {}",
-            crate::convert_cmd::list_files(&args.inputs)
-        );
-    }
+    let readers = crate::convert_cmd::open_inputs(&args.inputs, &args.read)?;
     let started = Instant::now();
     let mut points = 0u64;
     // Touch the decoded values so the work cannot be skipped.
     let mut checksum = 0f64;
-    for f in &files {
-        let mut r = pointlet_io::open(f)?;
+    for mut r in readers {
         while let Some(b) = r.read_batch(crate::convert_cmd::BATCH)? {
             points += b.len() as u64;
             if let Some(p) = b.xyz.last() {

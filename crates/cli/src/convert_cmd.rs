@@ -1,7 +1,8 @@
 //! `pointlet convert`: readers → store builder, decoding on its own thread.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use pointlet_core::PointBatch;
+use pointlet_io::PointReader;
 use pointlet_store::{BuildConfig, BuildProgress, StoreBuilder};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
@@ -27,6 +28,39 @@ pub struct Args {
     /// Seed of the shuffle inside each pointlet.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Step of the store's integer positions on every axis (e.g. 0.001). Default: the inputs'
+    /// own scale (LAS), or the precision of PLY/text data, as fine as the extent allows.
+    #[arg(long, value_parser = parse_scale)]
+    pub scale: Option<f64>,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
+}
+
+fn parse_scale(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a positive number")),
+    }
+}
+
+/// Opens every input (folders expanded): a `note:` line for each file of a folder left out
+/// and for what a reader has to say.
+pub fn open_inputs(
+    inputs: &[PathBuf],
+    read: &crate::load::ReadArgs,
+) -> Result<Vec<Box<dyn PointReader>>> {
+    let pointlet_io::Inputs { readers, skipped } =
+        pointlet_io::open_inputs(inputs, &read.options())?;
+    for s in &skipped {
+        eprintln!("note: skipped {}: {}", s.path.display(), s.reason);
+    }
+    for r in &readers {
+        crate::load::print_notes(r.as_ref());
+    }
+    if readers.is_empty() {
+        bail!("no supported point files in {}", list_files(inputs));
+    }
+    Ok(readers)
 }
 
 /// Points per batch handed from the decoder thread to the builder.
@@ -39,19 +73,27 @@ pub fn run(args: Args) -> Result<()> {
             args.output.display()
         );
     }
-    let files = pointlet_io::expand_inputs(&args.inputs)?;
-    if files.is_empty() {
-        bail!("no supported point files in {}", list_files(&args.inputs));
-    }
+    crate::signals::remove_temporaries_on_signals()?;
+    let readers = open_inputs(&args.inputs, &args.read)?;
+    let files: Vec<PathBuf> = readers.iter().map(|r| r.path().to_path_buf()).collect();
     refuse_overwriting_inputs(&files, &args.output)?;
-    let mut readers = Vec::with_capacity(files.len());
-    for f in &files {
-        readers.push(pointlet_io::open(f)?);
-    }
     let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-    let meta = pointlet_store::merge_meta(&metas, &names)
+    let mut meta = pointlet_store::merge_meta(&metas, &names)
         .with_context(|| format!("merging the headers of {}", list_files(&files)))?;
+    if let Some(scale) = args.scale {
+        let b = meta.bounds;
+        let q = pointlet_io::scale::quantization_with_scale(&b, scale).map_err(|axis| {
+            anyhow!(
+                "--scale {scale} cannot span the inputs: {} runs from {} to {}, more than \
+                 32-bit integers hold at that step",
+                ["x", "y", "z"][axis],
+                b.min[axis],
+                b.max[axis]
+            )
+        })?;
+        meta.quantization = Some(q);
+    }
     let claimed: u64 = metas.iter().map(|m| m.point_count).sum();
     let started = std::time::Instant::now();
     let summary = build_store(

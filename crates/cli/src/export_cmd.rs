@@ -40,6 +40,7 @@ fn parse_bbox(s: &str) -> Result<Aabb, String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    crate::signals::remove_temporaries_on_signals()?;
     let ext = args
         .output
         .extension()

@@ -59,6 +59,7 @@ impl<R: pointlet_io::PointReader> pointlet_io::PointReader for LeanReader<R> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    crate::signals::remove_temporaries_on_signals()?;
     if args.points == 0 {
         bail!("--points must be at least 1");
     }

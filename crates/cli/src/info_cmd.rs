@@ -17,6 +17,8 @@ pub struct Args {
     /// (LAS/LAZ files of up to 2M points are read anyway) to give their real bounds.
     #[arg(long)]
     pub verify: bool,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 /// Point files up to this many points are read whole to check the header bounds.
@@ -24,9 +26,10 @@ const READ_POINTS_UP_TO: u64 = 2_000_000;
 
 pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
+        args.read.refuse_for_store(&args.input)?;
         store_info(&args)?
     } else {
-        let mut reader = pointlet_io::open(&args.input)?;
+        let mut reader = crate::load::open_point_file(&args.input, &args.read)?;
         let meta = reader.meta().clone();
         // Only LAS bounds are a claim; PLY and text readers measured theirs already.
         let small_las = meta.las.is_some() && meta.point_count <= READ_POINTS_UP_TO;

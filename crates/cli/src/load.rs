@@ -2,7 +2,50 @@
 
 use anyhow::{Context, Result};
 use pointlet_core::Aabb;
+use pointlet_io::{PointReader, ReadOptions};
 use std::path::Path;
+
+/// How to read point files, for what their content does not say.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ReadArgs {
+    /// Names of the columns of text point files, in order, overriding a header line
+    /// (e.g. x,y,z,r,g,b,intensity; `_` skips a column).
+    #[arg(long, value_delimiter = ',')]
+    pub columns: Option<Vec<String>>,
+}
+
+impl ReadArgs {
+    pub fn options(&self) -> ReadOptions {
+        ReadOptions {
+            columns: self.columns.clone(),
+        }
+    }
+
+    /// Stores carry their attributes: reading options do not apply to them.
+    pub fn refuse_for_store(&self, path: &Path) -> Result<()> {
+        if self.columns.is_some() {
+            anyhow::bail!(
+                "--columns names the columns of text point files; {} is a store",
+                path.display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Opens one point file and prints the reader's notes.
+pub fn open_point_file(path: &Path, read: &ReadArgs) -> Result<Box<dyn PointReader>> {
+    let reader = pointlet_io::open_with(path, &read.options())?;
+    print_notes(reader.as_ref());
+    Ok(reader)
+}
+
+/// The reader's notes, one `note:` line each.
+pub fn print_notes(reader: &dyn PointReader) {
+    for n in reader.notes() {
+        eprintln!("note: {}: {n}", reader.path().display());
+    }
+}
 
 /// Stores are recognised by their extension; anything else goes to the point-file readers.
 pub fn is_store_path(path: &Path) -> bool {
@@ -13,10 +56,11 @@ pub fn is_store_path(path: &Path) -> bool {
 }
 
 /// All positions of a store or point file, with their bounds.
-pub fn load_positions(path: &Path) -> Result<(Vec<[f64; 3]>, Aabb)> {
+pub fn load_positions(path: &Path, read: &ReadArgs) -> Result<(Vec<[f64; 3]>, Aabb)> {
     let mut pts = Vec::new();
     let mut bounds = Aabb::EMPTY;
     if is_store_path(path) {
+        read.refuse_for_store(path)?;
         let store = pointlet_store::Store::open(path)?;
         let q = store.header().quantization;
         pts.reserve(store.header().points as usize);
@@ -31,7 +75,7 @@ pub fn load_positions(path: &Path) -> Result<(Vec<[f64; 3]>, Aabb)> {
             }
         }
     } else {
-        let mut r = pointlet_io::open(path)?;
+        let mut r = open_point_file(path, read)?;
         while let Some(b) = r.read_batch(1 << 20)? {
             for p in &b.xyz {
                 bounds.grow(*p);

@@ -15,6 +15,7 @@ mod metrics_cmd;
 mod progress;
 mod render_cmd;
 mod scene;
+mod signals;
 mod view_args;
 mod view_cmd;
 

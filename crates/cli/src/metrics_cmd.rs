@@ -14,10 +14,12 @@ pub struct Args {
     /// Target number of pointlets M (pointlet size as `convert` would choose it).
     #[arg(long, default_value_t = 100_000, value_parser = crate::parse_count_arg)]
     pub pointlets: u64,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let (points, bounds) = crate::load::load_positions(&args.input)?;
+    let (points, bounds) = crate::load::load_positions(&args.input, &args.read)?;
     if points.is_empty() {
         bail!("{} holds no points", args.input.display());
     }

@@ -32,6 +32,8 @@ pub struct Args {
     /// Points of the demo scene (without INPUT).
     #[arg(long, default_value_t = crate::scene::DEMO_POINTS, value_parser = crate::parse_count_arg)]
     pub demo_points: u64,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 /// Opens the GPU and picks the variant to draw with, saying so when it must fall back.
@@ -78,10 +80,16 @@ pub fn run(args: Args) -> Result<()> {
         .as_deref()
         .filter(|p| crate::load::is_store_path(p))
     {
+        args.read.refuse_for_store(store)?;
         return render_store(&args, store);
     }
     let (ctx, variant) = open_gpu(&args.draw)?;
-    let scene = crate::scene::load(args.input.as_deref(), args.draw.color, args.demo_points)?;
+    let scene = crate::scene::load(
+        args.input.as_deref(),
+        &args.read,
+        args.draw.color,
+        args.demo_points,
+    )?;
     let camera = args.camera.camera(&scene.bounds)?;
     let set = reorder(scene.set, args.draw.order);
     let mut cloud = GpuCloud::upload(&ctx, &set, args.draw.encoding, args.draw.page_size)

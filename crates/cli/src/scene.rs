@@ -52,7 +52,12 @@ pub fn store_color(asked: Option<ColorMode>, store: &pointlet_store::Store) -> R
 
 /// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `asked`, or
 /// by the data's default colouring.
-pub fn load(input: Option<&Path>, asked: Option<ColorMode>, demo_points: u64) -> Result<Scene> {
+pub fn load(
+    input: Option<&Path>,
+    read: &crate::load::ReadArgs,
+    asked: Option<ColorMode>,
+    demo_points: u64,
+) -> Result<Scene> {
     match input {
         Some(p) if crate::load::is_store_path(p) => {
             let store = pointlet_store::Store::open(p)?;
@@ -68,7 +73,11 @@ pub fn load(input: Option<&Path>, asked: Option<ColorMode>, demo_points: u64) ->
             }
             acc.finish(name)
         }
-        Some(p) => read_all(pointlet_io::open(p)?, asked, p.display().to_string()),
+        Some(p) => read_all(
+            crate::load::open_point_file(p, read)?,
+            asked,
+            p.display().to_string(),
+        ),
         None => {
             let generator =
                 pointlet_io::generate::SceneGenerator::new(pointlet_io::generate::SceneConfig {

@@ -49,12 +49,20 @@ pub struct Args {
     /// Draw as fast as possible instead of at the display's refresh rate.
     #[arg(long)]
     pub no_vsync: bool,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let input = match args.input {
-        Some(p) if crate::load::is_store_path(&p) => Input::Store(p),
-        Some(p) => Input::File(p),
+        Some(p) if crate::load::is_store_path(&p) => {
+            args.read.refuse_for_store(&p)?;
+            Input::Store(p)
+        }
+        Some(p) => Input::File {
+            path: p,
+            read: args.read.options(),
+        },
         None => Input::Demo {
             points: args.demo_points,
             seed: crate::scene::DEMO_SEED,

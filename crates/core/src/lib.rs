@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod camera;
+pub mod cleanup;
 pub mod codes;
 pub mod color;
 pub mod crs;

@@ -187,7 +187,8 @@ pub struct SourceMeta {
     pub point_count: u64,
     /// Bounds the header claims (empty when the format has none).
     pub bounds: crate::Aabb,
-    /// The source's quantization, when positions are integers (LAS/LAZ).
+    /// The source's quantization: LAS/LAZ's own; for PLY and text, chosen from the data's
+    /// precision and extent.
     pub quantization: Option<Quantization>,
     pub layout: PointLayout,
     /// LAS point format of the source, when it is LAS/LAZ.

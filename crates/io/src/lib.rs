@@ -4,11 +4,13 @@
 //! no reader holds a whole file in memory unless the format forces it. Coordinates stay f64.
 //!
 //! [`open`] picks the reader: LAS/LAZ/COPC by the `LASF` signature (whatever the extension),
-//! otherwise by extension (`.ply`; `.xyz`, `.txt`, `.csv`, `.pts`).
+//! otherwise by extension (`.ply`; `.xyz`, `.txt`, `.csv`, `.pts`). [`open_inputs`] opens the
+//! files and folders of a merge, skipping what in a folder is not a point cloud.
 
 pub mod generate;
 pub mod las;
 pub mod ply;
+pub mod scale;
 pub mod writer;
 pub mod xyz;
 
@@ -32,6 +34,9 @@ pub enum IoError {
     /// A format or feature this build does not read or write.
     #[error("{}: {message}", path.display())]
     Unsupported { path: PathBuf, message: String },
+    /// The file holds no points: empty, or (text) not a point file at all.
+    #[error("{}: {message}", path.display())]
+    NoPoints { path: PathBuf, message: String },
 }
 
 impl IoError {
@@ -55,6 +60,13 @@ impl IoError {
             message: message.into(),
         }
     }
+
+    pub fn no_points(path: &Path, message: impl Into<String>) -> Self {
+        IoError::NoPoints {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
 }
 
 /// A streaming source of points.
@@ -66,6 +78,17 @@ pub trait PointReader: Send {
     /// The next batch of at most `max` points; `None` once every point was read.
     /// A reader that finds fewer points than its header claims returns an error, not `None`.
     fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError>;
+    /// What the reader decided that the user should hear (columns skipped, ...), one line each.
+    fn notes(&self) -> &[String] {
+        &[]
+    }
+}
+
+/// What a file's content cannot say for itself.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Names of the columns of text files, in order (overriding a header line); see [`xyz`].
+    pub columns: Option<Vec<String>>,
 }
 
 /// The kinds of point file [`open`] reads.
@@ -90,6 +113,11 @@ fn kind_of_extension(path: &Path) -> Option<Kind> {
 /// Opens any supported point file. LAS/LAZ headers are validated here; PLY and text files get
 /// one full pre-pass for their exact point count and bounds (they have no header bounds).
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
+    open_with(path, &ReadOptions::default())
+}
+
+/// [`open`] with options for what the file does not say.
+pub fn open_with(path: &Path, options: &ReadOptions) -> Result<Box<dyn PointReader>, IoError> {
     let meta = std::fs::metadata(path).map_err(|e| IoError::io(path, e))?;
     if meta.is_dir() {
         return Err(IoError::invalid(path, "is a folder, not a point file"));
@@ -119,7 +147,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
             "not a LAS/LAZ file: it does not start with the \"LASF\" signature",
         )),
         Some(Kind::Ply) => ply::open(path),
-        Some(Kind::Text) => xyz::open(path),
+        Some(Kind::Text) => xyz::open(path, options),
         None if magic.starts_with(b"ply") => ply::open(path),
         None => Err(IoError::unsupported(
             path,
@@ -128,34 +156,91 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
     }
 }
 
+/// An input file: named on its own, or found in a folder.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InputFile {
+    pub path: PathBuf,
+    pub in_folder: bool,
+}
+
+/// A file of a folder left out of a merge, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Skipped {
+    pub path: PathBuf,
+    pub reason: String,
+}
+
 /// Files named as inputs are kept as given (a missing one is an error); folders expand,
-/// recursively, to their files with a supported extension, sorted so merges are deterministic.
-/// Folders reached through symbolic links are not entered (no cycles).
-pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, IoError> {
-    let mut out = Vec::new();
+/// recursively, to their files with a supported extension, sorted so merges are deterministic;
+/// their other files come back as skipped. Folders reached through symbolic links are not
+/// entered (no cycles).
+pub fn list_inputs(inputs: &[PathBuf]) -> Result<(Vec<InputFile>, Vec<Skipped>), IoError> {
+    let mut files = Vec::new();
+    let mut skipped = Vec::new();
     for input in inputs {
         let meta = std::fs::metadata(input).map_err(|e| IoError::io(input, e))?;
         if meta.is_dir() {
             let mut found = Vec::new();
-            walk(input, &mut found)?;
+            walk(input, &mut found, &mut skipped)?;
             found.sort();
-            out.extend(found);
+            files.extend(found.into_iter().map(|path| InputFile {
+                path,
+                in_folder: true,
+            }));
         } else {
-            out.push(input.clone());
+            files.push(InputFile {
+                path: input.clone(),
+                in_folder: false,
+            });
         }
     }
-    Ok(out)
+    skipped.sort_by(|a, b| a.path.cmp(&b.path));
+    Ok((files, skipped))
 }
 
-fn walk(dir: &Path, found: &mut Vec<PathBuf>) -> Result<(), IoError> {
+/// The opened inputs of a merge.
+pub struct Inputs {
+    pub readers: Vec<Box<dyn PointReader>>,
+    /// Files of folders left out, sorted by path.
+    pub skipped: Vec<Skipped>,
+}
+
+/// The readers of every input, as [`list_inputs`] lists them. A file found in a folder that
+/// holds no points (or, for text, is no point file at all) is skipped; the same file named on
+/// its own is an error, as is any other error.
+pub fn open_inputs(inputs: &[PathBuf], options: &ReadOptions) -> Result<Inputs, IoError> {
+    let (files, mut skipped) = list_inputs(inputs)?;
+    let mut readers = Vec::with_capacity(files.len());
+    for f in files {
+        match open_with(&f.path, options) {
+            Ok(r) => readers.push(r),
+            Err(IoError::NoPoints { path, message }) if f.in_folder => skipped.push(Skipped {
+                path,
+                reason: message,
+            }),
+            Err(e) => return Err(e),
+        }
+    }
+    skipped.sort_by(|a, b| a.path.cmp(&b.path));
+    Ok(Inputs { readers, skipped })
+}
+
+fn walk(dir: &Path, found: &mut Vec<PathBuf>, skipped: &mut Vec<Skipped>) -> Result<(), IoError> {
     for entry in std::fs::read_dir(dir).map_err(|e| IoError::io(dir, e))? {
         let entry = entry.map_err(|e| IoError::io(dir, e))?;
         let path = entry.path();
         let kind = entry.file_type().map_err(|e| IoError::io(&path, e))?;
         if kind.is_dir() {
-            walk(&path, found)?;
+            walk(&path, found, skipped)?;
         } else if kind_of_extension(&path).is_some() && path.is_file() {
             found.push(path);
+        } else if !kind.is_symlink() || path.is_file() {
+            skipped.push(Skipped {
+                path,
+                reason: "not a point file: expected .las, .laz, .copc.laz, .ply, .xyz, .txt, \
+                         .csv or .pts"
+                    .into(),
+            });
         }
     }
     Ok(())

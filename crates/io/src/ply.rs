@@ -9,10 +9,14 @@
 //!   (clamped to 65535); floats follow [`crate::ValueRange::colour_scale`].
 //! - Intensity: [`crate::ValueRange::intensity_scale`] (integers up to 65535 are kept as is).
 //! - NaN or infinite coordinates are an error naming the vertex.
+//! - Positions are quantized at the finest power-of-ten step their precision calls for (ascii:
+//!   the decimals written; floats: the spacing of the type at the largest magnitude; integers:
+//!   1), coarsened only as far as the extent needs (see [`crate::scale`]).
 //!
 //! PLY has no bounds, so [`open`] reads the vertices once for the exact bounds (and value
 //! ranges); reading then decodes them a second time.
 
+use crate::scale::{f32_ulp, f64_ulp, fit_quantization, float_decimals, written_decimals};
 use crate::xyz::LineReader;
 use crate::{push_defaults, IoError, PointReader, Scale, ValueRange};
 use pointlet_core::{Aabb, PointBatch, PointLayout, SourceMeta};
@@ -292,6 +296,8 @@ struct Body {
     layout: Arc<VertexLayout>,
     lines: LineReader<BufReader<File>>,
     buf: Vec<u8>,
+    /// Ascii only: the most decimals written in each coordinate so far.
+    decimals: [i32; 3],
 }
 
 /// The vertex properties with their roles; binary offsets when no property is a list.
@@ -339,6 +345,7 @@ impl Body {
             header,
             lines,
             buf: Vec::new(),
+            decimals: [0; 3],
         };
         for e in 0..body.header.vertex {
             body.skip_element(e)?;
@@ -465,7 +472,13 @@ impl Body {
                         .map_err(|_| at(format!("'{w}' is not a number")))
                 };
                 match p {
-                    Prop::Scalar(_) => set(*role, num(word()?)?),
+                    Prop::Scalar(_) => {
+                        let w = word()?;
+                        if let Role::Coord(a) = role {
+                            self.decimals[*a] = self.decimals[*a].max(written_decimals(w));
+                        }
+                        set(*role, num(w)?)
+                    }
                     Prop::List { .. } => {
                         let n = num(word()?)?;
                         if !(0.0..=MAX_LIST as f64).contains(&n) {
@@ -515,12 +528,28 @@ impl Body {
     }
 }
 
+/// The type of x, y and z (the header has checked that each is a scalar).
+fn coordinate_types(h: &Header) -> [Ty; 3] {
+    let mut types = [Ty::F64; 3];
+    for ((_, p), r) in h
+        .vertex()
+        .map_or(&[][..], |e| &e.props[..])
+        .iter()
+        .zip(&h.roles)
+    {
+        if let (Role::Coord(a), Prop::Scalar(t)) = (r, p) {
+            types[*a] = *t;
+        }
+    }
+    types
+}
+
 /// Opens a PLY file: one pass over the vertices for the exact bounds and value ranges.
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
     let mut body = Body::open(path)?;
     let count = body.header.vertex_count();
     if count == 0 {
-        return Err(IoError::invalid(
+        return Err(IoError::no_points(
             path,
             "no points: the vertex element is empty",
         ));
@@ -528,13 +557,30 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
     let has_intensity = body.header.roles.contains(&Role::Intensity);
     let colour_ty = body.header.colour_ty;
     let mut bounds = Aabb::EMPTY;
+    let mut magnitude = [0f64; 3];
     let (mut intensity, mut colour) = (ValueRange::default(), ValueRange::default());
     for i in 0..count {
         let v = body.vertex(i)?;
         bounds.grow(v.xyz);
+        for (m, c) in magnitude.iter_mut().zip(v.xyz) {
+            *m = m.max(c.abs());
+        }
         intensity.add(v.intensity);
         v.rgb.iter().for_each(|c| colour.add(*c));
     }
+    let decimals = match body.header.encoding {
+        Encoding::Ascii => body.decimals,
+        _ => {
+            let types = coordinate_types(&body.header);
+            std::array::from_fn(|a| match types[a] {
+                Ty::F32 => float_decimals(magnitude[a], f32_ulp),
+                Ty::F64 => float_decimals(magnitude[a], f64_ulp),
+                _ => 0,
+            })
+        }
+    };
+    // None when 32-bit integers cannot span the extent even at 0.01: the merge says so.
+    let quantization = fit_quantization(&bounds, decimals);
     let colour_scale = match colour_ty {
         Some(Ty::U8 | Ty::I8) => Scale::mul(257.0),
         Some(t) if t.is_float() => colour.colour_scale(),
@@ -549,7 +595,7 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
         format: format!("PLY ({encoding})"),
         point_count: count,
         bounds,
-        quantization: None,
+        quantization,
         layout: PointLayout {
             rgb: colour_ty.is_some(),
             ..Default::default()

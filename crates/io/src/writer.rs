@@ -201,11 +201,9 @@ impl LasWriter {
         let offset_to_point_data = u32::try_from(offset)
             .map_err(|_| IoError::invalid(path, "the VLRs are too large for a LAS header"))?;
         let tmp = temp_path(path);
-        let file = File::options()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-            .map_err(|e| IoError::io(path, e))?;
+        let file =
+            pointlet_core::cleanup::create(&tmp, File::options().write(true).create_new(true))
+                .map_err(|e| IoError::io(path, e))?;
         let mut writer = LasWriter {
             path: path.to_path_buf(),
             tmp,
@@ -338,7 +336,7 @@ impl LasWriter {
         let file = out.into_inner().map_err(|e| io(e.into_error()))?;
         file.sync_all().map_err(io)?;
         drop(file);
-        std::fs::rename(&self.tmp, &self.path).map_err(io)?;
+        pointlet_core::cleanup::persist(&self.tmp, &self.path).map_err(io)?;
         self.finished = true;
         Ok(self.stats.points)
     }
@@ -404,7 +402,7 @@ impl Drop for LasWriter {
         if !self.finished {
             // Close before removing; removal failing leaves nothing worse than a hidden file.
             self.sink = None;
-            let _ = std::fs::remove_file(&self.tmp);
+            pointlet_core::cleanup::remove(&self.tmp);
         }
     }
 }

@@ -307,9 +307,9 @@ fn empty_text_file_and_empty_folder() {
     std::fs::write(&t, "# only a comment\n\n").expect("write");
     fails(&t, &["no points"]);
     let empty = tempfile::tempdir().expect("tempdir");
-    let files = pointlet_io::expand_inputs(&[empty.path().to_path_buf()]).expect("expand");
+    let (files, _) = pointlet_io::list_inputs(&[empty.path().to_path_buf()]).expect("expand");
     assert!(files.is_empty());
-    let e = pointlet_io::expand_inputs(&[PathBuf::from("/nonexistent/in.laz")])
+    let e = pointlet_io::list_inputs(&[PathBuf::from("/nonexistent/in.laz")])
         .expect_err("missing")
         .to_string();
     assert!(e.contains("in.laz"), "{e}");

@@ -1,5 +1,5 @@
 //! PLY (ascii and both binaries) and text readers on small files written here; `open`'s
-//! choice of reader; `expand_inputs` on folders.
+//! choice of reader; `list_inputs` and `open_inputs` on folders.
 
 mod common;
 use common::*;
@@ -27,7 +27,12 @@ fn xyz_without_names_by_column_count() {
     std::fs::write(&p, "# a comment\n\n1 2 3\r\n4.5\t5 -6\n").expect("write");
     let (m, b) = read(&p);
     assert_eq!(b.xyz, vec![[1.0, 2.0, 3.0], [4.5, 5.0, -6.0]]);
-    assert!(!m.layout.rgb && m.quantization.is_none() && m.las_point_format.is_none());
+    assert!(!m.layout.rgb && m.las_point_format.is_none());
+    assert_eq!(
+        m.quantization.map(|q| q.scale),
+        Some([0.1, 1.0, 1.0]),
+        "decimals written"
+    );
     assert_eq!(m.bounds, bounds_of(&b));
     assert_eq!(b.returns, vec![0x11, 0x11], "one return of one");
     assert_eq!(b.intensity, vec![0, 0]);
@@ -48,9 +53,8 @@ fn xyz_without_names_by_column_count() {
     );
 
     let p = dir.path().join("d.xyz");
-    std::fs::write(&p, "1 2 3 7 0 128 1000\n4 5 6 9 20 30 40\n").expect("write");
+    std::fs::write(&p, "1 2 3 0 128 1000\n4 5 6 20 30 40\n").expect("write");
     let (_, b) = read(&p);
-    assert_eq!(b.intensity, vec![7, 9]);
     assert_eq!(
         b.rgb,
         vec![[0, 128, 1000], [20, 30, 40]],
@@ -260,10 +264,12 @@ fn folders_expand_recursively_and_sorted() {
         std::fs::write(root.join(f), b"").expect("write");
     }
     let explicit = root.join("n.bin");
-    let got = pointlet_io::expand_inputs(&[explicit.clone(), root.to_path_buf()]).expect("expand");
+    let (got, skipped) =
+        pointlet_io::list_inputs(&[explicit.clone(), root.to_path_buf()]).expect("expand");
     let rel: Vec<String> = got
         .iter()
-        .map(|p| {
+        .map(|f| {
+            let p = &f.path;
             p.strip_prefix(root)
                 .unwrap_or(p)
                 .to_string_lossy()
@@ -283,4 +289,217 @@ fn folders_expand_recursively_and_sorted() {
         ],
         "explicit files as given, then the folder's supported files in path order"
     );
+    assert!(!got[0].in_folder && got[1..].iter().all(|f| f.in_folder));
+    let skipped: Vec<_> = skipped.iter().map(|s| s.path.clone()).collect();
+    assert_eq!(
+        skipped,
+        vec![root.join("a/notes.md"), root.join("n.bin")],
+        "the folder's other files"
+    );
+}
+
+fn read_with(path: &Path, columns: &str) -> (pointlet_core::SourceMeta, PointBatch, Vec<String>) {
+    let options = pointlet_io::ReadOptions {
+        columns: Some(columns.split(',').map(String::from).collect()),
+    };
+    let mut r = pointlet_io::open_with(path, &options).unwrap_or_else(|e| panic!("{e}"));
+    let meta = r.meta().clone();
+    let notes = r.notes().to_vec();
+    let b = read_all(r.as_mut(), 3);
+    (meta, b, notes)
+}
+
+#[test]
+fn named_columns_feed_every_attribute_they_name() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("a.csv");
+    std::fs::write(
+        &p,
+        "X;Y;Z;Class;Return_Number;number of returns;GPS_Time;Point_Source_ID;user_data;\
+         Scan_Angle;NIR;nx;scalar_Intensity;colour_index\n\
+         1;2;3;2;1;2;100.25;7;9;-12.5;65535;0.1;300;5\n\
+         4;5;6;6;2;2;100.5;8;0;3;0;0.2;400;6\n",
+    )
+    .expect("write");
+    let mut r = pointlet_io::open(&p).unwrap_or_else(|e| panic!("{e}"));
+    let notes = r.notes().to_vec();
+    let m = r.meta().clone();
+    let b = read_all(r.as_mut(), 2);
+    assert_eq!(b.xyz, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+    assert_eq!(b.classification, vec![2, 6]);
+    assert_eq!(b.returns, vec![0x21, 0x22], "return 1 of 2, return 2 of 2");
+    assert!(m.layout.gps_time && m.layout.nir && !m.layout.rgb);
+    assert_eq!(b.gps_time, vec![100.25, 100.5]);
+    assert_eq!(b.point_source_id, vec![7, 8]);
+    assert_eq!(b.user_data, vec![9, 0]);
+    assert_eq!(b.scan_angle, vec![-12.5, 3.0]);
+    assert_eq!(b.nir, vec![65535, 0]);
+    assert_eq!(b.intensity, vec![300, 400]);
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(notes[0].contains("'nx'") && notes[1].contains("'colour_index'"));
+
+    let p = dir.path().join("b.csv");
+    std::fs::write(&p, "x,y,z,classification\n1,2,3,2.5\n").expect("write");
+    let e = pointlet_io::open(&p)
+        .err()
+        .expect("fractional class")
+        .to_string();
+    assert!(e.contains("b.csv") && e.contains("line 2") && e.contains("classification"));
+}
+
+#[test]
+fn seven_unnamed_columns_are_refused_and_columns_names_them() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("rgbi.xyz");
+    // x y z r g b intensity: the old reading took 255 as intensity and 25700 as blue.
+    std::fs::write(&p, "1 2 3 255 128 0 100\n4 5 6 0 10 20 30000\n").expect("write");
+    let e = pointlet_io::open(&p).err().expect("ambiguous").to_string();
+    assert!(
+        e.contains("rgbi.xyz") && e.contains("7 unnamed columns") && e.contains("--columns"),
+        "{e}"
+    );
+    let (m, b, notes) = read_with(&p, "x,y,z,r,g,b,intensity");
+    assert!(m.layout.rgb && notes.is_empty());
+    assert_eq!(b.rgb, vec![[65535, 128 * 257, 0], [0, 2570, 5140]]);
+    assert_eq!(b.intensity, vec![100, 30000]);
+    let (_, b, _) = read_with(&p, "X,Y,Z,_,_,Class,_");
+    assert_eq!(b.classification, vec![0, 20], "_ skips a column");
+    for bad in [
+        "x,y,z,r,g,b",
+        "x,y,z,r,g,b,intensity,class",
+        "x,y,z,r,g,b,colour",
+    ] {
+        let options = pointlet_io::ReadOptions {
+            columns: Some(bad.split(',').map(String::from).collect()),
+        };
+        let e = pointlet_io::open_with(&p, &options)
+            .err()
+            .unwrap_or_else(|| panic!("--columns {bad}"))
+            .to_string();
+        assert!(e.contains("rgbi.xyz"), "{e}");
+    }
+    // .pts defines its seven columns: x y z intensity r g b.
+    let pts = dir.path().join("a.pts");
+    std::fs::copy(&p, &pts).expect("copy");
+    let (_, b) = read(&pts);
+    assert_eq!(b.intensity, vec![255, 0]);
+}
+
+#[test]
+fn cloudcompare_header_names_the_columns() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("cc.txt");
+    std::fs::write(
+        &p,
+        "//X,Y,Z,Rf,Gf,Bf,Intensity\n1.5,2,3,1,0.5,0,200\n4,5,6,0,0,1,100\n",
+    )
+    .expect("write");
+    let (m, b) = read(&p);
+    assert!(m.layout.rgb);
+    assert_eq!(b.xyz, vec![[1.5, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+    assert_eq!(
+        b.rgb,
+        vec![[65535, 32768, 0], [0, 0, 65535]],
+        "rf gf bf are 0–1"
+    );
+    assert_eq!(b.intensity, vec![200, 100]);
+}
+
+#[test]
+fn folders_skip_what_is_not_a_point_cloud() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = dir.path();
+    std::fs::write(root.join("a.xyz"), "1 2 3\n4 5 6\n").expect("write");
+    std::fs::write(root.join("readme.txt"), "Tiles of the 2024 survey.\n").expect("write");
+    std::fs::write(root.join("empty.xyz"), "# no points here\n").expect("write");
+    std::fs::write(root.join("notes.md"), "hello").expect("write");
+    std::fs::write(
+        root.join("empty.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+    )
+    .expect("write");
+    // A LAS tile whose header says it holds no points (legacy count at byte 107, by return).
+    let mut las = std::fs::read(data("simple.las")).expect("read");
+    las[107..131].fill(0);
+    std::fs::write(root.join("zero.las"), las).expect("write");
+    let pointlet_io::Inputs { readers, skipped } =
+        pointlet_io::open_inputs(&[root.to_path_buf()], &Default::default()).expect("open");
+    assert_eq!(readers.len(), 1);
+    assert_eq!(readers[0].path(), root.join("a.xyz"));
+    let mut names: Vec<String> = skipped
+        .iter()
+        .map(|s| s.path.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        vec![
+            "empty.ply",
+            "empty.xyz",
+            "notes.md",
+            "readme.txt",
+            "zero.las"
+        ]
+    );
+    assert!(skipped.iter().all(|s| !s.reason.is_empty()));
+    // Named on their own, the same files are errors.
+    for f in ["readme.txt", "empty.xyz", "zero.las"] {
+        let Err(e) = pointlet_io::open_inputs(&[root.join(f)], &Default::default()) else {
+            panic!("{f} alone");
+        };
+        assert!(e.to_string().contains(f), "{e}");
+    }
+    // A broken point file in a folder still fails the merge.
+    std::fs::write(root.join("b.xyz"), "1 2 3\n4 5 nan\n").expect("write");
+    assert!(pointlet_io::open_inputs(&[root.to_path_buf()], &Default::default()).is_err());
+}
+
+/// Deterministic coordinates in [0, 0.005): a 5 mm object.
+fn small_object(n: usize) -> Vec<[f64; 3]> {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 0.005
+    };
+    (0..n).map(|_| [next(), next(), next()]).collect()
+}
+
+#[test]
+fn scale_follows_the_precision_of_the_data() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let pts = small_object(100);
+    let bin = |name: &str, ty: &str, put: &dyn Fn(&mut Vec<u8>, f64)| {
+        let mut bytes = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty {ty} x\nproperty {ty} y\nproperty {ty} z\nend_header\n",
+            pts.len()
+        )
+        .into_bytes();
+        for p in &pts {
+            p.iter().for_each(|c| put(&mut bytes, *c));
+        }
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).expect("write");
+        read(&path).0.quantization.expect("quantization")
+    };
+    let q = bin("f.ply", "float", &|b, c| {
+        b.extend_from_slice(&(c as f32).to_le_bytes())
+    });
+    assert_eq!(q.scale, [1e-10; 3], "f32 spacing near 0.005 is 4.7e-10");
+    let q = bin("d.ply", "double", &|b, c| {
+        b.extend_from_slice(&c.to_le_bytes())
+    });
+    assert_eq!(q.scale, [1e-11; 3], "the finest step 0.005 fits in 32 bits");
+    let p = dir.path().join("a.xyz");
+    std::fs::write(&p, "1.25 100.5 3\n1.125 -200.25 4.5e-3\n").expect("write");
+    let q = read(&p).0.quantization.expect("quantization");
+    assert_eq!(q.scale, [0.001, 0.01, 0.0001], "decimals written, per axis");
+    for (i, v) in [1.25, 100.5, 3.0].iter().enumerate() {
+        let raw = ((v - q.offset[i]) / q.scale[i]).round();
+        assert!(
+            (raw * q.scale[i] + q.offset[i] - v).abs() < 1e-9,
+            "on the grid"
+        );
+    }
 }

@@ -101,7 +101,7 @@ struct TempOutput {
 impl Drop for TempOutput {
     fn drop(&mut self) {
         if !self.keep {
-            let _ = std::fs::remove_file(&self.path);
+            pointlet_core::cleanup::remove(&self.path);
         }
     }
 }
@@ -218,18 +218,17 @@ impl StoreBuilder {
             _ => PathBuf::from("."),
         };
         let temp_path = runs::temp_name(&out_dir, &stem, "tmp");
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create_new(true)
-            .open(&temp_path)
-            .map_err(|e| {
-                StoreError::io(
-                    output,
-                    format!("creating the temporary output {}", temp_path.display()),
-                    e,
-                )
-            })?;
+        let file = pointlet_core::cleanup::create(
+            &temp_path,
+            OpenOptions::new().read(true).write(true).create_new(true),
+        )
+        .map_err(|e| {
+            StoreError::io(
+                output,
+                format!("creating the temporary output {}", temp_path.display()),
+                e,
+            )
+        })?;
         let temp = TempOutput {
             path: temp_path,
             keep: false,
@@ -571,7 +570,7 @@ impl StoreBuilder {
         pio::write_all_at(&file, &preamble.encode(), 0).map_err(io("writing the preamble"))?;
         file.sync_all().map_err(io("flushing the output to disk"))?;
         drop(file);
-        std::fs::rename(&self.temp.path, &self.output).map_err(|e| {
+        pointlet_core::cleanup::persist(&self.temp.path, &self.output).map_err(|e| {
             StoreError::io(
                 &self.output,
                 format!("moving {} into place", self.temp.path.display()),

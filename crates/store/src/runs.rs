@@ -34,17 +34,15 @@ pub(crate) struct RunFile {
 
 impl Drop for RunFile {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        pointlet_core::cleanup::remove(&self.path);
     }
 }
 
 /// Creates a run file for writing; the returned guard removes it again when dropped.
 pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&path)
-        .map_err(|e| StoreError::io(&path, "creating a temporary run file", e))?;
+    let file =
+        pointlet_core::cleanup::create(&path, OpenOptions::new().write(true).create_new(true))
+            .map_err(|e| StoreError::io(&path, "creating a temporary run file", e))?;
     Ok((RunFile { path, count: 0 }, file))
 }
 

@@ -48,7 +48,9 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
     }
     // Raw files are read before the window opens (streaming them is a later issue).
     let memory = match &config.input {
-        Input::File(p) => Some(MemoryData::load(Source::File(p), config.order)?),
+        Input::File { path, read } => {
+            Some(MemoryData::load(Source::File { path, read }, config.order)?)
+        }
         Input::Demo { points, seed } => Some(MemoryData::load(
             Source::Demo {
                 points: *points,

@@ -48,7 +48,10 @@ pub enum Input {
     /// A `.pointlet` store, drawn through the virtualized scene.
     Store(PathBuf),
     /// Any point file, read whole into memory.
-    File(PathBuf),
+    File {
+        path: PathBuf,
+        read: pointlet_io::ReadOptions,
+    },
     /// The built-in synthetic scene.
     Demo { points: u64, seed: u64 },
 }

@@ -25,12 +25,12 @@ const MAX_RESERVE: u64 = 1 << 28;
 /// Where in-memory points come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Source<'a> {
-    File(&'a Path),
-    /// The built-in synthetic scene.
-    Demo {
-        points: u64,
-        seed: u64,
+    File {
+        path: &'a Path,
+        read: &'a pointlet_io::ReadOptions,
     },
+    /// The built-in synthetic scene.
+    Demo { points: u64, seed: u64 },
 }
 
 pub struct MemoryData {
@@ -52,9 +52,9 @@ pub struct MemoryData {
 impl MemoryData {
     pub fn load(source: Source<'_>, order: VertexOrder) -> Result<Self, ViewerError> {
         let (reader, name): (Box<dyn PointReader>, String) = match source {
-            Source::File(p) => (
-                pointlet_io::open(p).map_err(|e| ViewerError::Load(e.to_string()))?,
-                p.display().to_string(),
+            Source::File { path, read } => (
+                pointlet_io::open_with(path, read).map_err(|e| ViewerError::Load(e.to_string()))?,
+                path.display().to_string(),
             ),
             Source::Demo { points, seed } => {
                 let generator = pointlet_io::generate::SceneGenerator::new(
@@ -264,7 +264,10 @@ mod tests {
     #[test]
     fn missing_file_is_an_error_naming_it() {
         let err = MemoryData::load(
-            Source::File(Path::new("/nonexistent/x.laz")),
+            Source::File {
+                path: Path::new("/nonexistent/x.laz"),
+                read: &Default::default(),
+            },
             VertexOrder::Original,
         )
         .err()

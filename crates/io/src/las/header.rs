@@ -31,6 +31,9 @@ pub enum LasError {
     Invalid(String),
     #[error("{0}")]
     Unsupported(String),
+    /// The header says there are no points (a folder merge skips such files).
+    #[error("{0}")]
+    NoPoints(String),
 }
 
 fn invalid(msg: impl Into<String>) -> LasError {
@@ -323,7 +326,9 @@ pub(crate) fn parse(src: &mut dyn Source) -> Result<LasHeader, LasError> {
     };
     read_vlrs(src, &mut header, number_of_vlrs)?;
     if point_count == 0 {
-        return Err(invalid("the header says the file holds no points"));
+        return Err(LasError::NoPoints(
+            "no points: the header says the file holds none".into(),
+        ));
     }
     if !compressed {
         let data = len - u64::from(offset_to_point_data);

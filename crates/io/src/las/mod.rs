@@ -24,6 +24,7 @@ pub(crate) fn las_error(path: &Path, e: LasError) -> IoError {
         LasError::Io(source) => IoError::io(path, source),
         LasError::NotLas(m) | LasError::Invalid(m) => IoError::invalid(path, m),
         LasError::Unsupported(m) => IoError::unsupported(path, m),
+        LasError::NoPoints(m) => IoError::no_points(path, m),
     }
 }
 
