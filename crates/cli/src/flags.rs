@@ -21,6 +21,8 @@ const VIRTUAL: [&str; 7] = [
 ];
 /// Flags of in-memory drawing: a store keeps the order and pages it was built with.
 const IN_MEMORY: [&str; 2] = ["order", "page_size"];
+/// Flags of the point-file readers: a store carries its attributes.
+const READING: [&str; 1] = ["columns"];
 
 /// The flags of one subcommand typed on the command line.
 pub struct Given<'a>(pub &'a ArgMatches);
@@ -102,6 +104,12 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             "a .pointlet output",
             "a LAS/LAZ output",
         ),
+        Command::Info(a) if crate::load::is_store_path(&a.input) => {
+            given.refuse(&READING, "point files", "a store")
+        }
+        Command::Metrics(a) if crate::load::is_store_path(&a.input) => {
+            given.refuse(&READING, "point files", "a store")
+        }
         _ => Ok(()),
     }
 }
@@ -136,7 +144,10 @@ fn drawing(
         given.refuse(&["demo_points"], "the demo scene (without INPUT)", kind)?;
     }
     match input {
-        Some(p) if crate::load::is_store_path(p) => store_drawing(given, raster),
+        Some(p) if crate::load::is_store_path(p) => {
+            given.refuse(&READING, "point files", kind)?;
+            store_drawing(given, raster)
+        }
         _ => given.refuse(store_only, "stores", kind),
     }
 }

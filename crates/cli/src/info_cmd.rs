@@ -26,7 +26,6 @@ const READ_POINTS_UP_TO: u64 = 2_000_000;
 
 pub fn run(args: Args) -> Result<()> {
     let info = if crate::load::is_store_path(&args.input) {
-        args.read.refuse_for_store(&args.input)?;
         store_info(&args)?
     } else {
         let mut reader = crate::load::open_point_file(&args.input, &args.read)?;

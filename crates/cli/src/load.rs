@@ -20,17 +20,6 @@ impl ReadArgs {
             columns: self.columns.clone(),
         }
     }
-
-    /// Stores carry their attributes: reading options do not apply to them.
-    pub fn refuse_for_store(&self, path: &Path) -> Result<()> {
-        if self.columns.is_some() {
-            anyhow::bail!(
-                "--columns names the columns of text point files; {} is a store",
-                path.display()
-            );
-        }
-        Ok(())
-    }
 }
 
 /// Opens one point file and prints the reader's notes.
@@ -60,7 +49,6 @@ pub fn load_positions(path: &Path, read: &ReadArgs) -> Result<(Vec<[f64; 3]>, Aa
     let mut pts = Vec::new();
     let mut bounds = Aabb::EMPTY;
     if is_store_path(path) {
-        read.refuse_for_store(path)?;
         let store = pointlet_store::Store::open(path)?;
         let q = store.header().quantization;
         pts.reserve(store.header().points as usize);

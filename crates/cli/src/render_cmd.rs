@@ -80,7 +80,6 @@ pub fn run(args: Args) -> Result<()> {
         .as_deref()
         .filter(|p| crate::load::is_store_path(p))
     {
-        args.read.refuse_for_store(store)?;
         return render_store(&args, store);
     }
     let (ctx, variant) = open_gpu(&args.draw)?;

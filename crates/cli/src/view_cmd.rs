@@ -55,10 +55,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let input = match args.input {
-        Some(p) if crate::load::is_store_path(&p) => {
-            args.read.refuse_for_store(&p)?;
-            Input::Store(p)
-        }
+        Some(p) if crate::load::is_store_path(&p) => Input::Store(p),
         Some(p) => Input::File {
             path: p,
             read: args.read.options(),

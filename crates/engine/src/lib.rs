@@ -13,7 +13,7 @@ pub use residency::{ResidencySet, Window};
 pub use scene::{
     target_bytes, FrameReport, PickedPoint, SceneConfig, StepReport, VirtualScene, RESIDENCY_PARTS,
 };
-pub use source::{fit_scale, has_attribute, StoreSource};
+pub use source::{fit_scale, StoreSource};
 
 use thiserror::Error;
 

@@ -148,7 +148,7 @@ impl VirtualScene {
         }
         let store = Arc::new(Store::open(path)?);
         let header = store.header().clone();
-        if !crate::source::has_attribute(&header.layout, config.color) {
+        if !config.color.available_in(&header.layout) {
             return Err(EngineError::Config(format!(
                 "{} has no {} attribute to colour by",
                 path.display(),
@@ -330,7 +330,7 @@ impl VirtualScene {
     }
 
     fn check_color_mode(&self, mode: ColorMode) -> Result<(), EngineError> {
-        if crate::source::has_attribute(&self.store.header().layout, mode) {
+        if mode.available_in(&self.store.header().layout) {
             return Ok(());
         }
         Err(EngineError::Config(format!(

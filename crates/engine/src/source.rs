@@ -4,7 +4,7 @@
 //! the render thread nothing but copies.
 
 use pointlet_core::color::{point_color, ColorMode, ColorScale};
-use pointlet_core::{PointBatch, PointLayout};
+use pointlet_core::PointBatch;
 use pointlet_gpu::{compact_step, encode_point, PointEncoding};
 use pointlet_store::{Store, StreamKind};
 use pointlet_stream::{PointletData, PointletSource, SourceError};
@@ -28,15 +28,6 @@ fn stream_for(mode: ColorMode) -> Option<StreamKind> {
         ColorMode::ReturnNumber => Some(StreamKind::Returns),
         ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
         ColorMode::GpsTime => Some(StreamKind::GpsTime),
-    }
-}
-
-/// Whether a store has what `mode` colours by.
-pub fn has_attribute(layout: &PointLayout, mode: ColorMode) -> bool {
-    match mode {
-        ColorMode::Rgb => layout.rgb,
-        ColorMode::GpsTime => layout.gps_time,
-        _ => true,
     }
 }
 

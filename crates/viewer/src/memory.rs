@@ -255,8 +255,12 @@ mod tests {
             ("test1_4.las", ColorMode::Intensity), // no RGB
             ("plane.laz", ColorMode::Intensity),   // RGB all zero
         ] {
-            let d = MemoryData::load(Source::File(&testdata.join(file)), VertexOrder::Original)
-                .expect("test data");
+            let path = testdata.join(file);
+            let source = Source::File {
+                path: &path,
+                read: &Default::default(),
+            };
+            let d = MemoryData::load(source, VertexOrder::Original).expect("test data");
             assert_eq!(d.default_color.mode, mode, "{file}");
         }
     }
