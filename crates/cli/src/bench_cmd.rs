@@ -54,7 +54,7 @@ pub struct Args {
     #[arg(long)]
     pub quality: bool,
     /// Buckets for `--quality` (default 1M,2.5M,5M,10M,25M,50M up to the store's size).
-    #[arg(long, value_delimiter = ',', value_parser = crate::parse_count_arg)]
+    #[arg(long, value_delimiter = ',', value_parser = crate::parse_bucket_arg)]
     pub buckets: Vec<u64>,
     #[command(flatten)]
     pub draw: DrawArgs,

@@ -147,6 +147,15 @@ pub(crate) fn parse_bytes_arg(s: &str) -> Result<u64, String> {
     pointlet_core::size::parse_bytes(s).map_err(|e| e.to_string())
 }
 
+/// Clap value parser for the LoD's point bucket B (a count of at least 1; the engine refuses 0
+/// too, but a usage error comes before any work).
+pub(crate) fn parse_bucket_arg(s: &str) -> Result<u64, String> {
+    match parse_count_arg(s)? {
+        0 => Err("the point bucket B must be at least 1 point".into()),
+        b => Ok(b),
+    }
+}
+
 /// Clap value parser for counts such as `25M`.
 pub(crate) fn parse_count_arg(s: &str) -> Result<u64, String> {
     pointlet_core::size::parse_count(s).map_err(|e| e.to_string())

@@ -156,21 +156,6 @@ fn data_without_colours_is_drawn_by_its_intensity_or_elevation() {
     }
 }
 
-/// Runs and asserts a usage error: exit code 2 (as clap's own), an `error:` line containing
-/// every `needles`.
-fn usage_fails(args: &[&str], needles: &[&str]) {
-    let out = pointlet(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "pointlet {args:?}:\n{err}");
-    assert!(err.starts_with("error: "), "no error line:\n{err}");
-    for n in needles {
-        assert!(
-            err.contains(n),
-            "pointlet {args:?}: message lacks '{n}':\n{err}"
-        );
-    }
-}
-
 #[test]
 fn flags_that_do_not_apply_are_refused() {
     let dir = tempfile::tempdir().expect("tempdir");

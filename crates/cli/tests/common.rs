@@ -74,3 +74,18 @@ pub fn listing(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+/// Runs and asserts a usage error: exit code 2 (as clap's own), an `error:` line containing
+/// every `needles`.
+pub fn usage_fails(args: &[&str], needles: &[&str]) {
+    let out = pointlet(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "pointlet {args:?}:\n{err}");
+    assert!(err.starts_with("error: "), "no error line:\n{err}");
+    for n in needles {
+        assert!(
+            err.contains(n),
+            "pointlet {args:?}: message lacks '{n}':\n{err}"
+        );
+    }
+}

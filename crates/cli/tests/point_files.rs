@@ -185,13 +185,13 @@ fn columns_flag_names_text_columns_in_every_command_that_reads_them() {
     ok(&["convert", s(&p), "-o", s(&store), columns[0], columns[1]]);
     ok(&["metrics", s(&p), columns[0], columns[1], "--pointlets", "1"]);
     for cmd in ["info", "view", "metrics"] {
-        fails(
+        usage_fails(
             &[cmd, s(&store), columns[0], columns[1]],
             &["--columns applies to point files only, not to a store"],
         );
     }
     let png = dir.path().join("r.png");
-    fails(
+    usage_fails(
         &["render", s(&store), "-o", s(&png), columns[0], columns[1]],
         &["--columns applies to point files only, not to a store"],
     );

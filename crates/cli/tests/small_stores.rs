@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{fails, ok, pointlet, s};
+use common::{ok, pointlet, s, usage_fails};
 use std::path::Path;
 
 fn pixels(path: &Path) -> Vec<u8> {
@@ -114,7 +114,7 @@ fn a_tiny_bucket_draws_every_visible_pointlet_and_zero_is_refused() {
         assert!(lit(&png) > 0, "bucket {bucket}: the LoD image is black");
     }
     let png = dir.path().join("b0.png");
-    fails(
+    usage_fails(
         &["render", s(&store), "-o", s(&png), "--bucket", "0"],
         &["bucket", "at least 1"],
     );
