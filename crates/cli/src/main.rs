@@ -144,10 +144,10 @@ pub(crate) fn available_memory() -> Option<u64> {
 
 /// Clap value parser for byte sizes such as `512MiB`.
 pub(crate) fn parse_bytes_arg(s: &str) -> Result<u64, String> {
-    pointlet_core::size::parse_bytes(s).map_err(|e| e.to_string())
+    pointlet_core::size::parse_bytes(s).map_err(|e| e.reason())
 }
 
 /// Clap value parser for counts such as `25M`.
 pub(crate) fn parse_count_arg(s: &str) -> Result<u64, String> {
-    pointlet_core::size::parse_count(s).map_err(|e| e.to_string())
+    pointlet_core::size::parse_count(s).map_err(|e| e.reason())
 }
