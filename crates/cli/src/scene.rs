@@ -87,7 +87,7 @@ pub fn load(
             read_all(
                 Box::new(generator.reader()),
                 asked,
-                format!("demo scene ({demo_points} points)"),
+                "demo scene".to_string(),
             )
         }
     }

@@ -434,3 +434,28 @@ fn rates_and_info_numbers_read_as_people_write_them() {
         assert!(!json.contains("-0.0"), "{json}");
     }
 }
+
+#[test]
+fn render_of_the_demo_scene_says_its_point_count_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("demo.png");
+    let args = [
+        "render",
+        "-o",
+        s(&png),
+        "--demo-points",
+        "1234",
+        "--width",
+        "64",
+        "--height",
+        "48",
+    ];
+    let out = pointlet(&args);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{said}");
+    assert_eq!(said.matches("1234").count(), 1, "{said}");
+}
