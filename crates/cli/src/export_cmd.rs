@@ -51,7 +51,7 @@ pub fn run(args: Args) -> Result<()> {
             args.output.display()
         );
     }
-    let store = pointlet_store::Store::open(&args.store)?;
+    let store = crate::load::open_store(&args.store, "export")?;
     let h = store.header();
     let mut writer = LasWriter::create(
         &args.output,

@@ -459,3 +459,18 @@ fn render_of_the_demo_scene_says_its_point_count_once() {
     assert!(out.status.success(), "{said}");
     assert_eq!(said.matches("1234").count(), 1, "{said}");
 }
+
+#[test]
+fn export_and_bench_of_a_point_file_say_to_convert_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let las = data("simple.las");
+    let out = dir.path().join("x.las");
+    for (args, command) in [
+        (vec!["export", s(&las), "-o", s(&out)], "export"),
+        (vec!["bench", s(&las), "--frames", "2"], "bench"),
+    ] {
+        let err = fails(&args, &["simple.las", command, "pointlet convert"]);
+        assert!(!err.contains("damaged"), "{err}");
+    }
+    assert!(listing(dir.path()).is_empty(), "nothing written");
+}
