@@ -115,6 +115,10 @@ pub fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    // As render's --bucket: a zero bucket draws nothing, and the quality run sets it directly.
+    if args.buckets.contains(&0) {
+        bail!("--buckets must be at least 1 point each");
+    }
     // Checked before flying, not minutes later when the plot is written.
     if let Some(p) = &args.plot {
         plot_format(p)?;

@@ -474,3 +474,14 @@ fn export_and_bench_of_a_point_file_say_to_convert_it() {
     }
     assert!(listing(dir.path()).is_empty(), "nothing written");
 }
+
+#[test]
+fn bench_quality_refuses_a_zero_bucket_as_render_does() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("g.pointlet");
+    ok(&["generate", "--points", "5000", "-o", s(&store)]);
+    fails(
+        &["bench", s(&store), "--quality", "--buckets", "1000,0"],
+        &["--buckets", "at least 1"],
+    );
+}
