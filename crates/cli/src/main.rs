@@ -151,3 +151,11 @@ pub(crate) fn parse_bytes_arg(s: &str) -> Result<u64, String> {
 pub(crate) fn parse_count_arg(s: &str) -> Result<u64, String> {
     pointlet_core::size::parse_count(s).map_err(|e| e.reason())
 }
+
+/// Clap value parser for LoD buckets: a count of at least 1 (a zero bucket draws nothing).
+pub(crate) fn parse_bucket_arg(s: &str) -> Result<u64, String> {
+    match parse_count_arg(s)? {
+        0 => Err("the point bucket B must be at least 1 point".into()),
+        b => Ok(b),
+    }
+}

@@ -130,7 +130,7 @@ impl DrawArgs {
 #[derive(clap::Args, Clone, Debug)]
 pub struct VirtualArgs {
     /// The LoD's point bucket B: points drawn per frame while the camera moves.
-    #[arg(long, default_value = "25M", value_parser = crate::parse_count_arg)]
+    #[arg(long, default_value = "25M", value_parser = crate::parse_bucket_arg)]
     pub bucket: u64,
     /// GPU memory for points, tables and framebuffers (default 2GiB).
     #[arg(long, value_parser = crate::parse_bytes_arg)]

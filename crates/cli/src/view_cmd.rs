@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value = "4GiB", value_parser = crate::parse_bytes_arg)]
     pub ram_budget: u64,
     /// The LoD's point bucket B for stores (points drawn per moving frame).
-    #[arg(long, default_value = "25M", value_parser = crate::parse_count_arg)]
+    #[arg(long, default_value = "25M", value_parser = crate::parse_bucket_arg)]
     pub bucket: u64,
     /// Automation: draw this many frames in the window, then exit.
     #[arg(long)]

@@ -480,7 +480,7 @@ fn bench_quality_refuses_a_zero_bucket_as_render_does() {
     let dir = tempfile::tempdir().expect("tempdir");
     let store = dir.path().join("g.pointlet");
     ok(&["generate", "--points", "5000", "-o", s(&store)]);
-    fails(
+    usage_fails(
         &["bench", s(&store), "--quality", "--buckets", "1000,0"],
         &["--buckets", "at least 1"],
     );
