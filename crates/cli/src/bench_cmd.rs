@@ -119,7 +119,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(p) = &args.plot {
         plot_format(p)?;
     }
-    let store = pointlet_store::Store::open(&args.store)?;
+    let store = crate::load::open_store(&args.store, "bench")?;
     let color = crate::scene::store_color(args.draw.color, &store)?;
     drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;

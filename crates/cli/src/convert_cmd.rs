@@ -39,7 +39,7 @@ pub struct Args {
 fn parse_scale(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("'{s}' is not a positive number")),
+        _ => Err("not a positive number".to_string()),
     }
 }
 

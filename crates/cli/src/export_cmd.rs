@@ -23,18 +23,16 @@ fn parse_bbox(s: &str) -> Result<Aabb, String> {
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("bbox '{s}': expected six numbers xmin,ymin,zmin,xmax,ymax,zmax"))?;
+        .map_err(|_| "expected six numbers xmin,ymin,zmin,xmax,ymax,zmax".to_string())?;
     if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-        return Err(format!(
-            "bbox '{s}': expected six finite numbers xmin,ymin,zmin,xmax,ymax,zmax"
-        ));
+        return Err("expected six finite numbers xmin,ymin,zmin,xmax,ymax,zmax".to_string());
     }
     let b = Aabb {
         min: [v[0], v[1], v[2]],
         max: [v[3], v[4], v[5]],
     };
     if b.is_empty() {
-        return Err(format!("bbox '{s}': each min must be ≤ its max"));
+        return Err("each min must be ≤ its max".to_string());
     }
     Ok(b)
 }
@@ -53,7 +51,7 @@ pub fn run(args: Args) -> Result<()> {
             args.output.display()
         );
     }
-    let store = pointlet_store::Store::open(&args.store)?;
+    let store = crate::load::open_store(&args.store, "export")?;
     let h = store.header();
     let mut writer = LasWriter::create(
         &args.output,

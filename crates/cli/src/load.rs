@@ -1,6 +1,6 @@
 //! Reading any input (store or point file) into memory for the commands that need it whole.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use pointlet_core::Aabb;
 use pointlet_io::{PointReader, ReadOptions};
 use std::path::Path;
@@ -42,6 +42,17 @@ pub fn is_store_path(path: &Path) -> bool {
         .and_then(|e| e.to_str())
         .map(|e| e.eq_ignore_ascii_case("pointlet"))
         .unwrap_or(false)
+}
+
+/// Opens the store that `command` reads: a point file is told to be converted, not called damaged.
+pub fn open_store(path: &Path, command: &str) -> Result<pointlet_store::Store> {
+    match pointlet_store::Store::open(path) {
+        Err(_) if !is_store_path(path) && path.is_file() => bail!(
+            "{}: {command} reads a pointlet store, not a point file (`pointlet convert` makes one)",
+            path.display()
+        ),
+        opened => Ok(opened?),
+    }
 }
 
 /// All positions of a store or point file, with their bounds.

@@ -144,7 +144,7 @@ pub(crate) fn available_memory() -> Option<u64> {
 
 /// Clap value parser for byte sizes such as `512MiB`.
 pub(crate) fn parse_bytes_arg(s: &str) -> Result<u64, String> {
-    pointlet_core::size::parse_bytes(s).map_err(|e| e.to_string())
+    pointlet_core::size::parse_bytes(s).map_err(|e| e.reason())
 }
 
 /// Clap value parser for the LoD's point bucket B (a count of at least 1; the engine refuses 0
@@ -158,5 +158,5 @@ pub(crate) fn parse_bucket_arg(s: &str) -> Result<u64, String> {
 
 /// Clap value parser for counts such as `25M`.
 pub(crate) fn parse_count_arg(s: &str) -> Result<u64, String> {
-    pointlet_core::size::parse_count(s).map_err(|e| e.to_string())
+    pointlet_core::size::parse_count(s).map_err(|e| e.reason())
 }

@@ -87,7 +87,7 @@ pub fn load(
             read_all(
                 Box::new(generator.reader()),
                 asked,
-                format!("demo scene ({demo_points} points)"),
+                "demo scene".to_string(),
             )
         }
     }
@@ -143,7 +143,7 @@ impl Accumulator {
                 let mode = choose_color(self.mode, &batch.layout, name, || {
                     Ok(default_color(&batch.layout, &[batch]))
                 })?;
-                *self.scale.insert(ColorScale::fit(mode, batch, z))
+                *self.scale.insert(ColorScale::fit(mode, &[batch], z))
             }
         };
         self.set.positions.extend_from_slice(&batch.xyz);

@@ -182,10 +182,10 @@ pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{s}': expected three numbers x,y,z"))?;
+        .map_err(|_| "expected three numbers x,y,z".to_string())?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
-        _ => Err(format!("'{s}': expected three finite numbers x,y,z")),
+        _ => Err("expected three finite numbers x,y,z".to_string()),
     }
 }
 
@@ -196,7 +196,7 @@ fn names<T: Copy>(all: &[T], name: fn(T) -> &'static str) -> String {
 pub fn parse_variant(s: &str) -> Result<RasterVariant, String> {
     RasterVariant::parse(s).ok_or_else(|| {
         format!(
-            "unknown rasterizer '{s}' (one of: {})",
+            "unknown rasterizer (one of: {})",
             names(&RasterVariant::ALL, RasterVariant::name)
         )
     })
@@ -205,7 +205,7 @@ pub fn parse_variant(s: &str) -> Result<RasterVariant, String> {
 pub fn parse_encoding(s: &str) -> Result<PointEncoding, String> {
     PointEncoding::parse(s).ok_or_else(|| {
         format!(
-            "unknown encoding '{s}' (one of: {})",
+            "unknown encoding (one of: {})",
             names(&PointEncoding::ALL, PointEncoding::name)
         )
     })
@@ -214,7 +214,7 @@ pub fn parse_encoding(s: &str) -> Result<PointEncoding, String> {
 pub fn parse_order(s: &str) -> Result<VertexOrder, String> {
     VertexOrder::parse(s).ok_or_else(|| {
         format!(
-            "unknown order '{s}' (one of: {})",
+            "unknown order (one of: {})",
             names(&VertexOrder::ALL, VertexOrder::name)
         )
     })
@@ -223,14 +223,14 @@ pub fn parse_order(s: &str) -> Result<VertexOrder, String> {
 pub fn parse_color(s: &str) -> Result<ColorMode, String> {
     ColorMode::parse(s).ok_or_else(|| {
         format!(
-            "unknown colouring '{s}' (one of: {})",
+            "unknown colouring (one of: {})",
             names(&ColorMode::ALL, ColorMode::name)
         )
     })
 }
 
 pub fn parse_color_rgb(s: &str) -> Result<[f32; 4], String> {
-    let err = || format!("'{s}': expected r,g,b (0–255) or #rrggbb");
+    let err = || "expected r,g,b (0–255) or #rrggbb".to_string();
     let rgb: Vec<u8> = if let Some(hex) = s.strip_prefix('#') {
         if hex.len() != 6 {
             return Err(err());

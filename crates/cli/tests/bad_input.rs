@@ -269,3 +269,26 @@ fn error_chains_say_each_fact_once() {
         .iter()
         .all(|f| f != "x.png" && f != "o.las" && f != "o.pointlet"));
 }
+
+#[test]
+fn a_bad_flag_value_is_named_once() {
+    for (args, value) in [
+        (
+            &["export", "x.pointlet", "-o", "x.las", "--bbox", "1,2,3"][..],
+            "1,2,3",
+        ),
+        (&["render", "-o", "x.png", "--eye", "1,2"][..], "1,2"),
+        (&["render", "-o", "x.png", "--background", "zz"][..], "zz"),
+        (&["render", "-o", "x.png", "--raster", "fast"][..], "fast"),
+        (&["generate", "--points", "abc", "-o", "x.las"][..], "abc"),
+        (
+            &["convert", "x.las", "-o", "x.pointlet", "--scale", "0"][..],
+            "'0'",
+        ),
+    ] {
+        let out = pointlet(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}:\n{err}");
+        assert_eq!(err.matches(value).count(), 1, "{args:?}:\n{err}");
+    }
+}

@@ -419,3 +419,54 @@ fn rates_and_info_numbers_read_as_people_write_them() {
         assert!(!json.contains("-0.0"), "{json}");
     }
 }
+
+#[test]
+fn render_of_the_demo_scene_says_its_point_count_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("demo.png");
+    let args = [
+        "render",
+        "-o",
+        s(&png),
+        "--demo-points",
+        "1234",
+        "--width",
+        "64",
+        "--height",
+        "48",
+    ];
+    let out = pointlet(&args);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{said}");
+    assert_eq!(said.matches("1234").count(), 1, "{said}");
+}
+
+#[test]
+fn export_and_bench_of_a_point_file_say_to_convert_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let las = data("simple.las");
+    let out = dir.path().join("x.las");
+    for (args, command) in [
+        (vec!["export", s(&las), "-o", s(&out)], "export"),
+        (vec!["bench", s(&las), "--frames", "2"], "bench"),
+    ] {
+        let err = fails(&args, &["simple.las", command, "pointlet convert"]);
+        assert!(!err.contains("damaged"), "{err}");
+    }
+    assert!(listing(dir.path()).is_empty(), "nothing written");
+}
+
+#[test]
+fn bench_quality_refuses_a_zero_bucket_as_render_does() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("g.pointlet");
+    ok(&["generate", "--points", "5000", "-o", s(&store)]);
+    usage_fails(
+        &["bench", s(&store), "--quality", "--buckets", "1000,0"],
+        &["--buckets", "at least 1"],
+    );
+}

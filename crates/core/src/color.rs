@@ -103,14 +103,20 @@ pub fn default_color(layout: &PointLayout, sample: &[&PointBatch]) -> DefaultCol
 pub fn default_color_of_parts<E>(
     layout: &PointLayout,
     pointlets: usize,
-    mut read: impl FnMut(usize) -> Result<PointBatch, E>,
+    read: impl FnMut(usize) -> Result<PointBatch, E>,
 ) -> Result<DefaultColor, E> {
-    let step = pointlets.div_ceil(DEFAULT_COLOR_SAMPLES).max(1);
-    let sample = (0..pointlets)
-        .step_by(step)
-        .map(&mut read)
-        .collect::<Result<Vec<_>, E>>()?;
+    let sample = sample_parts(pointlets, read)?;
     Ok(default_color(layout, &sample.iter().collect::<Vec<_>>()))
+}
+
+/// A few of `pointlets` parts spread over the data, which `read` returns: one pointlet alone is
+/// one small region of the scene, not a sample of its values.
+pub fn sample_parts<E>(
+    pointlets: usize,
+    read: impl FnMut(usize) -> Result<PointBatch, E>,
+) -> Result<Vec<PointBatch>, E> {
+    let step = pointlets.div_ceil(DEFAULT_COLOR_SAMPLES).max(1);
+    (0..pointlets).step_by(step).map(read).collect()
 }
 
 /// How values map to colours: the range (and gamma) of scalar attributes, and whether RGB is
@@ -125,9 +131,9 @@ pub struct ColorScale {
 }
 
 impl ColorScale {
-    /// A scale whose ranges come from a sample of the data (typically the first batch), with
-    /// 1 % / 99 % percentiles so outliers do not flatten the picture.
-    pub fn fit(mode: ColorMode, sample: &PointBatch, z_range: [f64; 2]) -> Self {
+    /// A scale whose ranges come from a sample of the data (a file's first batch, a store's
+    /// [`sample_parts`]), with 1 % / 99 % percentiles so outliers do not flatten the picture.
+    pub fn fit(mode: ColorMode, sample: &[&PointBatch], z_range: [f64; 2]) -> Self {
         let pct = |mut v: Vec<f64>| -> [f64; 2] {
             if v.is_empty() {
                 return [0.0, 1.0];
@@ -142,13 +148,18 @@ impl ColorScale {
             }
         };
         let range = match mode {
-            ColorMode::Intensity => pct(sample.intensity.iter().map(|v| *v as f64).collect()),
+            ColorMode::Intensity => pct(sample
+                .iter()
+                .flat_map(|b| b.intensity.iter().map(|v| *v as f64))
+                .collect()),
             ColorMode::Elevation => z_range,
-            ColorMode::GpsTime => pct(sample.gps_time.clone()),
+            ColorMode::GpsTime => pct(sample.iter().flat_map(|b| b.gps_time.clone()).collect()),
             ColorMode::PointSourceId => [0.0, 1.0],
             _ => [0.0, 1.0],
         };
-        let rgb_8bit = sample.rgb.iter().all(|c| c.iter().all(|v| *v <= 255));
+        let rgb_8bit = sample
+            .iter()
+            .all(|b| b.rgb.iter().all(|c| c.iter().all(|v| *v <= 255)));
         Self {
             mode,
             range,
@@ -377,14 +388,14 @@ mod tests {
         b.xyz.push([0.0; 3]);
         b.rgb.push([200, 100, 50]);
         b.classification.push(6);
-        let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
+        let s = ColorScale::fit(ColorMode::Rgb, &[&b], [0.0, 1.0]);
         assert!(s.rgb_8bit);
         assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50], 6));
         b.rgb[0] = [51200, 25600, 12800];
-        let s = ColorScale::fit(ColorMode::Rgb, &b, [0.0, 1.0]);
+        let s = ColorScale::fit(ColorMode::Rgb, &[&b], [0.0, 1.0]);
         assert!(!s.rgb_8bit);
         assert_eq!(point_color(&b, 0, &s), pack_rgba([200, 100, 50], 6));
-        let s = ColorScale::fit(ColorMode::Classification, &b, [0.0, 1.0]);
+        let s = ColorScale::fit(ColorMode::Classification, &[&b], [0.0, 1.0]);
         assert_eq!(
             point_color(&b, 0, &s),
             pack_rgba(classification_color(6), 6)

@@ -3,10 +3,17 @@
 use thiserror::Error;
 
 #[derive(Debug, Error, PartialEq)]
-#[error("cannot parse size '{input}': {why} (examples: 512MiB, 4GiB, 100MB, 25M)")]
+#[error("cannot parse size '{input}': {}", self.reason())]
 pub struct SizeError {
     input: String,
     why: &'static str,
+}
+
+impl SizeError {
+    /// The problem without the input, for a caller that shows the input itself (clap does).
+    pub fn reason(&self) -> String {
+        format!("{} (examples: 512MiB, 4GiB, 100MB, 25M)", self.why)
+    }
 }
 
 /// Parses a byte size. Binary (KiB, MiB, GiB, TiB) and decimal (KB, MB, GB, TB) suffixes;

@@ -3,7 +3,7 @@
 //! computed from the attribute the user colours by. Encoding here, in the loader threads, leaves
 //! the render thread nothing but copies.
 
-use pointlet_core::color::{point_color, ColorMode, ColorScale};
+use pointlet_core::color::{point_color, sample_parts, ColorMode, ColorScale};
 use pointlet_core::PointBatch;
 use pointlet_gpu::{compact_step, encode_point, PointEncoding};
 use pointlet_store::{Store, StreamKind};
@@ -140,16 +140,15 @@ impl PointletSource for StoreSource {
     }
 }
 
-/// A colour scale for `mode` fitted on the store's first pointlet (a uniform sample: pointlets
-/// are shuffled).
+/// A colour scale for `mode` fitted on a few pointlets spread over the store.
 pub fn fit_scale(store: &Store, mode: ColorMode) -> Result<ColorScale, pointlet_store::StoreError> {
-    let sample = if store.pointlets().is_empty() {
-        PointBatch::default()
-    } else {
-        store.read_pointlet(0)?
-    };
+    let sample = sample_parts(store.pointlets().len(), |i| store.read_pointlet(i))?;
     let b = store.header().bounds;
-    Ok(ColorScale::fit(mode, &sample, [b.min[2], b.max[2]]))
+    Ok(ColorScale::fit(
+        mode,
+        &sample.iter().collect::<Vec<_>>(),
+        [b.min[2], b.max[2]],
+    ))
 }
 
 /// Decodes one little-endian stream into the matching column of `batch`.

@@ -518,3 +518,36 @@ fn the_page_pool_holds_the_store_not_the_whole_budget() {
         scene.gpu_bytes()
     );
 }
+
+#[test]
+fn a_store_colour_scale_is_fitted_on_the_whole_scene_not_its_first_pointlet() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("s.pointlet");
+    build_store_of(&path, 60_000, 200);
+    let store = pointlet_store::Store::open(&path).expect("open");
+    let all: Vec<_> = (0..store.pointlets().len())
+        .map(|i| store.read_pointlet(i).expect("read"))
+        .collect();
+    for (mode, values) in [
+        (
+            ColorMode::Intensity,
+            all.iter()
+                .flat_map(|b| b.intensity.iter().map(|v| *v as f64))
+                .collect::<Vec<_>>(),
+        ),
+        (
+            ColorMode::GpsTime,
+            all.iter().flat_map(|b| b.gps_time.clone()).collect(),
+        ),
+    ] {
+        let [lo, hi] = pointlet_engine::fit_scale(&store, mode).expect("fit").range;
+        // One spatial patch spans a sliver of the values: most points would clamp to an end.
+        let outside = values.iter().filter(|v| **v < lo || **v > hi).count();
+        assert!(
+            outside * 5 < values.len(),
+            "{}: {outside} of {} points outside the fitted range [{lo}, {hi}]",
+            mode.name(),
+            values.len()
+        );
+    }
+}

@@ -100,7 +100,14 @@ pub fn fit_quantization(bounds: &Aabb, decimals: [i32; 3]) -> Option<Quantizatio
 
 fn centred_offset(bounds: &Aabb, axis: usize, scale: f64) -> f64 {
     let centre = 0.5 * bounds.min[axis] + 0.5 * bounds.max[axis];
-    (centre / scale).round() * scale
+    let steps = (centre / scale).round();
+    // n / 10^d, not n × 10^-d: 0.0001 is inexact, and 1025 × 0.0001 is 0.10250000000000001.
+    let per_unit = (1.0 / scale).round();
+    if scale < 1.0 && (per_unit * scale - 1.0).abs() < 1e-12 {
+        steps / per_unit
+    } else {
+        steps * scale
+    }
 }
 
 /// Whether both ends of the bounds quantize into `i32` on `axis`.
@@ -125,6 +132,18 @@ mod tests {
         assert_eq!(written_decimals("0.1234567890123456789"), MAX_DECIMALS);
         assert_eq!(decimal_step(3), 0.001);
         assert_eq!(decimal_step(-2), 100.0);
+    }
+
+    #[test]
+    fn offsets_are_the_decimal_they_print_as() {
+        let b = Aabb {
+            min: [0.1, -0.2, 0.3],
+            max: [0.105, -0.195, 0.305],
+        };
+        let q = quantization_with_scale(&b, 0.0001).unwrap();
+        assert_eq!(format!("{:?}", q.offset), "[0.1025, -0.1975, 0.3025]");
+        let q = fit_quantization(&b, [4; 3]).unwrap();
+        assert_eq!(format!("{:?}", q.offset), "[0.1025, -0.1975, 0.3025]");
     }
 
     #[test]

@@ -204,7 +204,7 @@ impl MemoryData {
 /// The scale of every mode and the default colouring, fitted on `sample`.
 fn fit_all(sample: &PointBatch, z: [f64; 2]) -> (Vec<ColorScale>, DefaultColor) {
     let scales = ColorMode::ALL
-        .map(|m| ColorScale::fit(m, sample, z))
+        .map(|m| ColorScale::fit(m, &[sample], z))
         .to_vec();
     (scales, default_color(&sample.layout, &[sample]))
 }
