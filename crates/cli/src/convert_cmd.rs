@@ -79,8 +79,16 @@ pub fn run(args: Args) -> Result<()> {
     refuse_overwriting_inputs(&files, &args.output)?;
     let metas: Vec<_> = readers.iter().map(|r| r.meta().clone()).collect();
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-    let mut meta = pointlet_store::merge_meta(&metas, &names)
-        .with_context(|| format!("merging the headers of {}", list_files(&files)))?;
+    let mut meta = pointlet_store::merge_meta(&metas, &names).map_err(|e| {
+        // Conflicts between inputs name them already; other errors need the list.
+        let named = names.iter().any(|n| e.to_string().contains(n.as_str()));
+        let context = if named {
+            "merging the input headers".to_string()
+        } else {
+            format!("merging the headers of {}", list_files(&files))
+        };
+        anyhow::Error::new(e).context(context)
+    })?;
     if let Some(scale) = args.scale {
         let b = meta.bounds;
         let q = pointlet_io::scale::quantization_with_scale(&b, scale).map_err(|axis| {
@@ -111,10 +119,11 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     let secs = started.elapsed().as_secs_f64();
     eprintln!(
-        "wrote {}: {} points in {} pointlets of {} in {:.2} s ({})",
+        "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({})",
         args.output.display(),
         summary.points,
         summary.pointlets,
+        if summary.pointlets == 1 { "" } else { "s" },
         summary.pointlet_size,
         secs,
         crate::progress::points_per_second(summary.points as f64 / secs.max(1e-9))

@@ -126,11 +126,12 @@ fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
     drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;
     let config = args.virtual_args.config(&args.draw, color);
+    // The image size is checked before the scene sizes its pool for that frame.
+    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut scene =
         pointlet_engine::VirtualScene::open(&ctx, path, config, (args.width, args.height))
             .with_context(|| format!("opening {}", path.display()))?;
     let camera = args.camera.camera(&scene.bounds())?;
-    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
     let settings = args.draw.settings(variant);
     if args.no_converge {

@@ -292,3 +292,29 @@ fn a_bad_flag_value_is_named_once() {
         assert_eq!(err.matches(value).count(), 1, "{args:?}:\n{err}");
     }
 }
+
+#[test]
+fn an_image_too_large_is_refused_for_its_size_on_stores_and_files() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("s.pointlet");
+    ok(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    let png = dir.path().join("x.png");
+    for input in [s(&store), s(&data("simple.las"))] {
+        fails(
+            &[
+                "render",
+                input,
+                "-o",
+                s(&png),
+                "--width",
+                "100000",
+                "--height",
+                "100000",
+                "--color",
+                "rgb",
+            ],
+            &["image size 100000×100000", "pixels per side"],
+        );
+        assert!(!png.exists());
+    }
+}

@@ -177,9 +177,14 @@ fn merging_inputs_in_different_crss_is_refused() {
         set_geokeys(b, &[(3072, 2992)])
     });
     let out = dir.path().join("m.pointlet");
-    fails(
+    let err = fails(
         &["convert", s(&a), s(&b), "-o", s(&out)],
         &["a.laz", "b.laz", "EPSG:2994", "EPSG:2992", "different CRSs"],
+    );
+    assert_eq!(
+        err.matches(s(&a)).count(),
+        1,
+        "each input named once: {err}"
     );
     assert!(!out.exists());
     assert_eq!(listing(dir.path()).len(), 2, "{:?}", listing(dir.path()));
