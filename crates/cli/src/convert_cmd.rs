@@ -1,6 +1,6 @@
 //! `pointlet convert`: readers → store builder, decoding on its own thread.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use pointlet_core::PointBatch;
 use pointlet_io::PointReader;
 use pointlet_store::{BuildConfig, BuildProgress, StoreBuilder};
