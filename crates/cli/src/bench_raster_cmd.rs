@@ -183,8 +183,14 @@ pub fn run(args: Args) -> Result<()> {
                             / (med * 1e6),
                         fraction_of_copy: copy.map(|c| gbs / c),
                     });
+                    // Progress only; a time no GPU could reach is marked as it is shown.
+                    let doubt = if implausible(&rows[rows.len() - 1..], copy).is_some() {
+                        " (implausible)"
+                    } else {
+                        ""
+                    };
                     eprintln!(
-                        "  {:<9} {:<15} {:<8} {:<14} {:>9.3} ms",
+                        "  {:<9} {:<15} {:<8} {:<14} {:>9.3} ms{doubt}",
                         encoding.name(),
                         order.name(),
                         view,

@@ -327,6 +327,10 @@ fn bench_raster_never_reports_impossible_timings() {
                 !text.contains("% of copy") && !text.contains("speed-up"),
                 "{text}"
             );
+            // The progress lines on stderr mark the times they show as implausible too.
+            let err = String::from_utf8_lossy(&out.stderr);
+            let timed = err.lines().any(|l| l.trim_end().ends_with(" ms"));
+            assert!(!timed || err.contains("(implausible)"), "{err}");
         }
         // Else no rasterizer reads even its positions faster than the copy kernel moves memory.
         None => {

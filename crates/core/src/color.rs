@@ -289,6 +289,9 @@ const RETURN_COLORS: [[u8; 3]; 5] = [
     [170, 80, 220],
 ];
 
+/// Where the intensity ramp starts on the grey ramp (0 = black).
+const INTENSITY_FLOOR: f64 = 0.15;
+
 /// The word drawn for point `i` of `batch` under `scale` (see [`pack_rgba`]). Attributes the
 /// batch lacks draw grey.
 pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
@@ -305,7 +308,8 @@ pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
         },
         ColorMode::Intensity => {
             let t = batch.intensity.get(i).map_or(0.0, |v| norm(*v as f64));
-            Ramp::Grey.at(t)
+            // The darkest returns stay visible on the default black background.
+            Ramp::Grey.at(INTENSITY_FLOOR + (1.0 - INTENSITY_FLOOR) * t)
         }
         ColorMode::Elevation => batch.xyz.get(i).map_or(grey, |p| scale.ramp.at(norm(p[2]))),
         ColorMode::Classification => batch
@@ -339,6 +343,28 @@ mod tests {
         assert_eq!(Ramp::Viridis.at(0.0), [68, 1, 84]);
         assert_eq!(Ramp::Viridis.at(2.0), [253, 231, 37]);
         assert_eq!(Ramp::Turbo.at(f64::NAN), [48, 18, 59]);
+    }
+
+    #[test]
+    fn the_weakest_intensity_is_not_drawn_black() {
+        let mut b = PointBatch::new(PointLayout::default());
+        b.xyz.extend([[0.0; 3]; 3]);
+        b.intensity.extend([0, 500, 1000]);
+        let scale = ColorScale {
+            mode: ColorMode::Intensity,
+            range: [0.0, 1000.0],
+            gamma: 1.0,
+            rgb_8bit: false,
+            ramp: Ramp::Grey,
+        };
+        let rgb = |i| point_color(&b, i, &scale).to_le_bytes();
+        let (low, high) = (rgb(0), rgb(2));
+        assert!(
+            low[0] >= 30,
+            "intensity 0 draws {low:?}, invisible on black"
+        );
+        assert_eq!(&high[..3], &[255, 255, 255]);
+        assert!(rgb(1)[0] > low[0] && rgb(1)[0] < high[0]);
     }
 
     #[test]
