@@ -39,8 +39,9 @@ pub fn remove(temporary: &Path) {
     temps.retain(|p| p != temporary);
 }
 
-/// The temporary files that exist now (for tests and diagnostics).
-pub fn registered() -> Vec<PathBuf> {
+/// The temporary files that exist now.
+#[cfg(test)]
+fn registered() -> Vec<PathBuf> {
     temporaries().clone()
 }
 
