@@ -9,6 +9,7 @@ pub mod color;
 pub mod crs;
 pub mod lod;
 pub mod order;
+pub mod parts;
 pub mod partition;
 pub mod path;
 pub mod points;
@@ -17,6 +18,7 @@ pub mod size;
 
 pub use aabb::Aabb;
 pub use camera::Camera;
+pub use parts::{PartError, PartedSource};
 pub use points::{
     flags, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES,
 };

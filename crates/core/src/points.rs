@@ -265,6 +265,24 @@ impl PointBatch {
         self.xyz.len()
     }
 
+    /// Empties every column, keeps their memory, and sets the layout.
+    pub fn clear(&mut self, layout: PointLayout) {
+        self.layout = layout;
+        self.xyz.clear();
+        self.intensity.clear();
+        self.returns.clear();
+        self.flags.clear();
+        self.classification.clear();
+        self.scan_angle.clear();
+        self.user_data.clear();
+        self.point_source_id.clear();
+        self.gps_time.clear();
+        self.rgb.clear();
+        self.nir.clear();
+        self.waveform.clear();
+        self.extra_bytes.clear();
+    }
+
     pub fn is_empty(&self) -> bool {
         self.xyz.is_empty()
     }

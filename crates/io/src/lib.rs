@@ -82,6 +82,11 @@ pub trait PointReader: Send {
     fn notes(&self) -> &[String] {
         &[]
     }
+    /// The file as parts that threads decode at once (LAS, LAZ with a chunk table); `None`
+    /// when it can only be read front to back. Reading parts does not move `read_batch`.
+    fn parted(&self) -> Option<&dyn pointlet_core::PartedSource> {
+        None
+    }
 }
 
 /// What a file's content cannot say for itself.

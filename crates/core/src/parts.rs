@@ -1,0 +1,25 @@
+//! Point files that many threads decode at once, part by part.
+//!
+//! A LAS file's records and a LAZ file's chunks can be decoded independently, so conversion
+//! hands parts to every core instead of reading the file front to back on one thread.
+
+use crate::PointBatch;
+
+/// Why a part could not be decoded: the reader's own error (it names the file and offset).
+pub type PartError = Box<dyn std::error::Error + Send + Sync>;
+
+/// A point file split into parts (LAS record ranges, LAZ chunks). Parts in order give the
+/// file's points in order; each can be decoded from any thread, in any order.
+pub trait PartedSource: Sync {
+    /// Points in each part, in file order.
+    fn part_sizes(&self) -> &[u64];
+
+    /// Decodes part `i` into `out` (cleared first; its layout becomes the file's).
+    /// `scratch` is a buffer the caller keeps per thread to save allocations.
+    fn decode_part(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        scratch: &mut Vec<u8>,
+    ) -> Result<(), PartError>;
+}
