@@ -161,7 +161,9 @@ pub fn default_ram_budget() -> u64 {
         .max(64 << 20)
 }
 
-/// Streams every reader into a builder; decoding overlaps key computation and sorting.
+/// Feeds every reader into a builder: parted files (LAS, LAZ) are decoded on all cores by the
+/// builder itself; other files are decoded on a thread of their own while the builder keys
+/// the previous batch.
 pub fn build_store(
     output: &Path,
     config: BuildConfig,
@@ -169,39 +171,44 @@ pub fn build_store(
     sources: Vec<String>,
     readers: Vec<Box<dyn pointlet_io::PointReader>>,
 ) -> Result<pointlet_store::BuildSummary> {
+    // An error drops the builder, which removes its temporary files and partial output.
     let mut builder = StoreBuilder::create(output, config, meta, sources)?;
-    let (tx, rx) = sync_channel::<Result<PointBatch>>(2);
-    let decoder = std::thread::spawn(move || {
-        for mut r in readers {
-            loop {
-                let batch = r.read_batch(BATCH).map_err(anyhow::Error::from);
-                match batch {
-                    Ok(Some(b)) => {
-                        if tx.send(Ok(b)).is_err() {
-                            return;
-                        }
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        let _ = tx.send(Err(e));
-                        return;
-                    }
-                }
-            }
+    for reader in readers {
+        match reader.parted() {
+            Some(parts) => builder.push_parts(parts)?,
+            None => push_sequential(&mut builder, reader)?,
         }
-    });
-    for batch in rx {
-        // An error drops the builder, which removes its temporary files and partial output.
-        let mut batch = batch?;
-        if batch.layout != meta.layout {
-            batch.widen(meta.layout);
-        }
-        builder.push(&batch)?;
-    }
-    if decoder.join().is_err() {
-        bail!("the decoder thread panicked");
     }
     Ok(builder.finish()?)
+}
+
+/// Decodes one reader front to back on a thread of its own, pushing each batch.
+fn push_sequential(
+    builder: &mut StoreBuilder,
+    mut reader: Box<dyn pointlet_io::PointReader>,
+) -> Result<()> {
+    let (tx, rx) = sync_channel::<Result<PointBatch>>(2);
+    std::thread::scope(|scope| {
+        let decoder = scope.spawn(move || loop {
+            let batch = reader.read_batch(BATCH).map_err(anyhow::Error::from);
+            let end = !matches!(batch, Ok(Some(_)));
+            let sent = match batch {
+                Ok(Some(b)) => tx.send(Ok(b)),
+                Ok(None) => return,
+                Err(e) => tx.send(Err(e)),
+            };
+            if end || sent.is_err() {
+                return;
+            }
+        });
+        for batch in rx {
+            builder.push(&batch?)?;
+        }
+        if decoder.join().is_err() {
+            bail!("the decoder thread panicked");
+        }
+        Ok(())
+    })
 }
 
 /// Names for messages: all files when few, else the first ones and how many more.

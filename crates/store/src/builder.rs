@@ -1,16 +1,21 @@
 //! The out-of-core store builder: quantize, key, sort under a RAM budget, write atomically.
 
-use crate::emit::{Emitter, RecordLayout, Source};
+use crate::emit::{EmitPlan, Emitter, RecordLayout, Source};
 use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
-use crate::runs::{self, Run, RunFile, Spiller};
-use crate::{meta, pio, pointlet_size, StoreError};
+use crate::runs::{self, Run, RunFile, RunSlice, Spiller};
+use crate::{meta, pio, pointlet_size, sort, StoreError};
 use pointlet_core::codes::KeyGrid;
-use pointlet_core::{Aabb, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr};
+use pointlet_core::{
+    Aabb, LasFields, PartedSource, PointBatch, PointLayout, Quantization, SourceMeta, Vlr,
+};
 use rayon::prelude::*;
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::sync_channel;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The progress callback.
+type Progress = Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>;
 
 /// How to build a store.
 #[derive(Clone)]
@@ -85,7 +90,9 @@ pub struct BuildSummary {
 }
 
 /// A keying task's result: raw bounds of its points, or the first bad point and why.
-type KeyChunk = Result<([i32; 3], [i32; 3]), (usize, String)>;
+type KeyChunk = Result<RawBounds, (usize, String)>;
+/// Lowest and highest quantized coordinates.
+type RawBounds = ([i32; 3], [i32; 3]);
 
 /// Points per parallel task when quantizing and keying a batch.
 const KEY_TASK: usize = 1 << 14;
@@ -149,9 +156,9 @@ pub struct StoreBuilder {
 /// the source claims few enough points to fit it).
 fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool) {
     let io_chunk = (budget / 32).clamp(256 << 10, 16 << 20) as usize;
-    // A run holds its records and (key, index) pairs; sorting is in place; two I/O chunks
-    // (spill gather, write-out) come on top.
-    let per_point = (record + std::mem::size_of::<(u64, u32)>()) as u64;
+    // A run holds its records and (key, index) pairs, and the radix pass scatters the pairs
+    // into a second array; two I/O chunks (spill gather, write-out) come on top.
+    let per_point = (record + 2 * std::mem::size_of::<(u64, u32)>()) as u64;
     let room = budget.saturating_sub(2 * io_chunk as u64);
     let whole = room / per_point;
     let clamp = |v: u64| v.clamp(MIN_RUN_POINTS as u64, u32::MAX as u64) as usize;
@@ -303,6 +310,133 @@ impl StoreBuilder {
         r
     }
 
+    /// Adds every point of a parted file, decoding its parts on all cores. Points keep the
+    /// file's order (the store does not depend on how the parts were scheduled).
+    pub fn push_parts(&mut self, source: &dyn PartedSource) -> Result<(), StoreError> {
+        self.usable()?;
+        let r = self.push_parts_inner(source);
+        if r.is_err() {
+            self.failed = true;
+        }
+        r
+    }
+
+    fn push_parts_inner(&mut self, source: &dyn PartedSource) -> Result<(), StoreError> {
+        let sizes = source.part_sizes();
+        let mut i = 0;
+        while i < sizes.len() {
+            let first = usize::try_from(sizes[i]).unwrap_or(usize::MAX);
+            if first > self.run_capacity {
+                // A part larger than a whole run (a tiny budget): take it as a batch.
+                let mut batch = PointBatch::default();
+                source
+                    .decode_part(i, &mut batch, &mut Vec::new())
+                    .map_err(StoreError::Input)?;
+                self.push_inner(&batch)?;
+                i += 1;
+                continue;
+            }
+            let room = self.run_capacity - self.run.pairs.len();
+            if first > room {
+                self.spill()?;
+                continue;
+            }
+            let (mut j, mut total) = (i, 0usize);
+            while j < sizes.len() && total + sizes[j] as usize <= room {
+                total += sizes[j] as usize;
+                j += 1;
+            }
+            self.append_parts(source, i..j, total)?;
+            i = j;
+        }
+        Ok(())
+    }
+
+    /// Decodes parts `range` (`total` points, which fit the run) in parallel, each straight
+    /// into its place in the run: quantized, keyed and packed while still in the cache.
+    fn append_parts(
+        &mut self,
+        source: &dyn PartedSource,
+        range: std::ops::Range<usize>,
+        total: usize,
+    ) -> Result<(), StoreError> {
+        let rb = self.rl.len;
+        let n0 = self.run.pairs.len();
+        let expected = n0.saturating_add(self.claimed.saturating_sub(self.pushed) as usize);
+        let cap = self.run_capacity;
+        Self::grow(&mut self.run.pairs, n0 + total, expected, cap);
+        Self::grow(
+            &mut self.run.records,
+            (n0 + total) * rb,
+            expected.saturating_mul(rb),
+            cap * rb,
+        );
+        self.run.pairs.resize(n0 + total, (0, 0));
+        self.run.records.resize((n0 + total) * rb, 0);
+        // Each part's slices of the run, and its first run index.
+        let sizes = &source.part_sizes()[range.clone()];
+        let mut jobs = Vec::with_capacity(sizes.len());
+        let mut recs = &mut self.run.records[n0 * rb..];
+        let mut pairs = &mut self.run.pairs[n0..];
+        let mut at = n0;
+        for (part, &size) in range.clone().zip(sizes) {
+            let size = size as usize;
+            let (r, rest_r) = std::mem::take(&mut recs).split_at_mut(size * rb);
+            let (p, rest_p) = std::mem::take(&mut pairs).split_at_mut(size);
+            jobs.push((part, at, r, p));
+            (recs, pairs, at) = (rest_r, rest_p, at + size);
+        }
+        let (q, grid, rl, want) = (self.quantization, self.grid, &self.rl, self.layout);
+        let (pushed, claimed, progress) = (self.pushed, self.claimed, &self.progress);
+        let output = &self.output;
+        let done = AtomicU64::new(0);
+        let results: Vec<Result<RawBounds, StoreError>> = jobs
+            .into_par_iter()
+            .map_init(
+                || (PointBatch::default(), Vec::new()),
+                |(batch, scratch), (part, at, recs, pairs)| {
+                    source
+                        .decode_part(part, batch, scratch)
+                        .map_err(StoreError::Input)?;
+                    if batch.len() != pairs.len() || batch.layout.union(want) != want {
+                        return Err(StoreError::build(
+                            output,
+                            format!(
+                                "internal error: part {part} decoded to {} points of {:?}, \
+                                 expected {} of {want:?}",
+                                batch.len(),
+                                batch.layout,
+                                pairs.len()
+                            ),
+                        ));
+                    }
+                    let seq = pushed + (at - n0) as u64;
+                    let bounds = key_and_pack(batch, 0, q, grid, rl, at, recs, pairs)
+                        .map_err(|(i, m)| bad_point(output, seq + i as u64, m))?;
+                    let d = done.fetch_add(pairs.len() as u64, Ordering::Relaxed);
+                    if let Some(p) = progress {
+                        let now = pushed + d + pairs.len() as u64;
+                        p(BuildProgress {
+                            phase: BuildPhase::Reading,
+                            done: now,
+                            total: claimed.max(now),
+                        });
+                    }
+                    Ok(bounds)
+                },
+            )
+            .collect();
+        for r in results {
+            let (lo, hi) = r?;
+            for a in 0..3 {
+                self.raw_min[a] = self.raw_min[a].min(lo[a]);
+                self.raw_max[a] = self.raw_max[a].max(hi[a]);
+            }
+        }
+        self.pushed += total as u64;
+        Ok(())
+    }
+
     fn push_inner(&mut self, batch: &PointBatch) -> Result<(), StoreError> {
         batch
             .check_shape()
@@ -361,24 +495,9 @@ impl StoreBuilder {
             .zip(self.run.pairs[n0..].par_chunks_mut(KEY_TASK))
             .enumerate()
             .map(|(t, (recs, pairs))| {
-                let mut lo = [i32::MAX; 3];
-                let mut hi = [i32::MIN; 3];
-                for (j, (rec, pair)) in recs.chunks_exact_mut(rb).zip(pairs.iter_mut()).enumerate()
-                {
-                    let i = start + t * KEY_TASK + j;
-                    let p = batch.xyz[i];
-                    let raw = q
-                        .quantize(p)
-                        .map_err(|e| (i, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
-                    for a in 0..3 {
-                        lo[a] = lo[a].min(raw[a]);
-                        hi[a] = hi[a].max(raw[a]);
-                    }
-                    let key = grid.hilbert(q.dequantize(raw));
-                    *pair = (key, (n0 + t * KEY_TASK + j) as u32);
-                    rl.pack(batch, i, raw, rec);
-                }
-                Ok((lo, hi))
+                let from = start + t * KEY_TASK;
+                key_and_pack(batch, from, q, grid, rl, n0 + t * KEY_TASK, recs, pairs)
+                    .map_err(|(i, m)| (from + i, m))
             })
             .collect();
         for r in results {
@@ -390,10 +509,10 @@ impl StoreBuilder {
                     }
                 }
                 Err((i, message)) => {
-                    let seq = self.pushed + (i - start) as u64;
-                    return Err(StoreError::build(
+                    return Err(bad_point(
                         &self.output,
-                        format!("input point {seq} {message}"),
+                        self.pushed + (i - start) as u64,
+                        message,
                     ));
                 }
             }
@@ -507,55 +626,54 @@ impl StoreBuilder {
         file.set_len(plan.file_len)
             .map_err(io("sizing the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
-        let mut emitter = Emitter::new(
-            &file,
-            &output,
-            &plan,
-            &self.rl,
+        let out = EmitPlan {
+            file: &file,
+            path: &output,
+            plan: &plan,
+            rl: &self.rl,
             k,
-            n,
-            self.seed,
-            self.quantization,
-        );
-        let block_pointlets = (self.io_chunk as u64 / (k * self.rl.len as u64)).max(1);
-        if spilled {
+            points: n,
+            seed: self.seed,
+            quantization: self.quantization,
+        };
+        let rb = self.rl.len;
+        let progress = self.progress.clone();
+        let ((), table_crc, checksums_crc) = if spilled {
             let runs = std::mem::take(&mut self.runs);
-            let rb = self.rl.len;
             let merge_budget = (self.ram_budget / 2) as usize;
-            let progress = self.progress.clone();
             let runs =
                 runs::reduce_runs(runs, rb, merge_budget, &self.run_dir, &self.stem, |d, t| {
-                    if let Some(p) = &progress {
-                        p(BuildProgress {
-                            phase: BuildPhase::Merging,
-                            done: d,
-                            total: t,
-                        });
-                    }
+                    report(&progress, BuildPhase::Merging, d, t);
                 })?;
-            merge_into(
-                &mut emitter,
-                runs,
-                merge_budget,
-                block_pointlets,
-                &self.progress,
-            )?;
+            Emitter::run(&out, |em| {
+                merge_parallel(em, &runs, merge_budget, &progress)
+            })?
         } else {
-            runs::sort_pairs(&mut self.run.pairs);
-            self.report(BuildPhase::Sorting, n, n);
-            let source = Source::Run {
-                records: &self.run.records,
-                order: &self.run.pairs,
-            };
-            let mut p0 = 0;
-            while p0 < pointlets {
-                let p1 = (p0 + block_pointlets).min(pointlets);
-                emitter.block(p0, p1, &source)?;
-                p0 = p1;
-                self.report(BuildPhase::Writing, (p1 * k).min(n), n);
-            }
-        }
-        let (table_crc, checksums_crc) = emitter.finish()?;
+            let block_pointlets = (self.io_chunk as u64 / (k * rb as u64)).max(1);
+            let (records, pairs) = (&self.run.records, &mut self.run.pairs);
+            let mut scratch = Vec::new();
+            let buckets = sort::partition(pairs, &mut scratch);
+            drop(scratch);
+            // Buckets are sorted just before the block that needs them, so writing the first
+            // blocks overlaps sorting the rest.
+            Emitter::run(&out, |em| {
+                let (mut p0, mut sorted) = (0, 0);
+                while p0 < pointlets {
+                    let p1 = (p0 + block_pointlets).min(pointlets);
+                    let need = buckets.covering((p1 * k).min(n) as usize);
+                    sort::sort_buckets(pairs, &buckets, sorted..need);
+                    sorted = need;
+                    let source = Source::Run {
+                        records,
+                        order: pairs,
+                    };
+                    em.block(p0, p1, &source)?;
+                    report(&progress, BuildPhase::Writing, (p1 * k).min(n), n);
+                    p0 = p1;
+                }
+                Ok(())
+            })?
+        };
         let preamble = Preamble {
             version: VERSION,
             file_len: plan.file_len,
@@ -568,7 +686,8 @@ impl StoreBuilder {
             checksums_crc,
         };
         pio::write_all_at(&file, &preamble.encode(), 0).map_err(io("writing the preamble"))?;
-        file.sync_all().map_err(io("flushing the output to disk"))?;
+        // No fsync: it would wait for the disk (seconds per GB) where the page cache is done;
+        // a store torn by a power loss fails its checksums instead of being read as good.
         drop(file);
         pointlet_core::cleanup::persist(&self.temp.path, &self.output).map_err(|e| {
             StoreError::io(
@@ -600,7 +719,7 @@ impl StoreBuilder {
             done += old.count;
             drop(old);
             rekey(&mut run, rb, self.quantization, self.grid);
-            runs::sort_pairs(&mut run.pairs);
+            sort::sort_pairs(&mut run.pairs);
             let path = runs::temp_name(&self.run_dir, &self.stem, "run");
             self.runs.push(runs::write_run(
                 path,
@@ -647,90 +766,237 @@ impl StoreBuilder {
     }
 }
 
-/// Streams the merged runs into the output: a merging thread fills blocks of whole pointlets
-/// while this thread splits, checksums and writes the previous block.
-fn merge_into(
-    emitter: &mut Emitter<'_>,
-    runs: Vec<RunFile>,
-    merge_budget: usize,
-    block_pointlets: u64,
-    progress: &Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
-) -> Result<(), StoreError> {
-    let rb = emitter.record_len();
-    let k = emitter.k();
-    let n = emitter.points();
-    let pointlets = emitter.pointlet_count();
-    let block_bytes = (block_pointlets * k) as usize * rb;
-    let path = emitter.path().to_path_buf();
-    let cursor_bytes = (merge_budget / runs.len().max(1)).max(16 << 10);
-    let (full_tx, full_rx) = sync_channel::<(u64, Vec<u8>)>(1);
-    let (free_tx, free_rx) = sync_channel::<Vec<u8>>(3);
-    for _ in 0..3 {
-        // Buffers start empty and grow once; capacity 3 makes these sends never block.
-        let _ = free_tx.send(Vec::new());
+fn bad_point(output: &Path, seq: u64, message: String) -> StoreError {
+    StoreError::build(output, format!("input point {seq} {message}"))
+}
+
+fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
+    if let Some(p) = progress {
+        p(BuildProgress { phase, done, total });
     }
-    std::thread::scope(|scope| {
-        let producer = scope.spawn(move || -> Result<u64, StoreError> {
-            let stopped = || StoreError::build(&path, "the writer stopped");
-            let mut buf = free_rx.recv().map_err(|_| stopped())?;
-            buf.reserve_exact(block_bytes);
-            let mut p0 = 0u64;
-            let merged = runs::merge(&runs, rb, cursor_bytes, |entry| {
-                buf.extend_from_slice(&entry[8..]);
-                if buf.len() == block_bytes {
-                    let mut next = free_rx.recv().map_err(|_| stopped())?;
-                    next.clear();
-                    next.reserve_exact(block_bytes);
-                    let full = std::mem::replace(&mut buf, next);
-                    full_tx.send((p0, full)).map_err(|_| stopped())?;
-                    p0 += block_pointlets;
-                }
-                Ok(())
-            })?;
-            if !buf.is_empty() {
-                full_tx.send((p0, buf)).map_err(|_| stopped())?;
-            }
-            Ok(merged)
-        });
-        let mut written = Ok(());
-        for (p0, buf) in full_rx.iter() {
-            let p1 = (p0 + block_pointlets).min(pointlets);
-            let source = Source::Sorted {
-                records: &buf,
-                first: p0 * k,
-            };
-            if let Err(e) = emitter.block(p0, p1, &source) {
-                written = Err(e);
-                break;
-            }
-            if let Some(p) = progress {
-                p(BuildProgress {
-                    phase: BuildPhase::Writing,
-                    done: (p1 * k).min(n),
-                    total: n,
-                });
-            }
-            let _ = free_tx.send(buf);
+}
+
+/// Merges the runs into the output on every core: the key range is cut at quantiles of the
+/// runs' sparse keys, each range is merged on its own and emits its whole pointlets; the few
+/// pointlets split between two ranges are put together at the end.
+fn merge_parallel(
+    em: &Emitter<'_>,
+    runs: &[RunFile],
+    budget: usize,
+    progress: &Progress,
+) -> Result<(), StoreError> {
+    let rb = em.record_len();
+    let (k, n) = (em.k(), em.points());
+    let files = runs::open_runs(runs)?;
+    let threads = rayon::current_num_threads();
+    let mut sample: Vec<u64> = runs.iter().flat_map(|r| r.sparse.iter().copied()).collect();
+    sample.sort_unstable();
+    let ranges = (threads * 4).min(sample.len()).max(1);
+    let mut splitters: Vec<u64> = (1..ranges)
+        .map(|i| sample[i * sample.len() / ranges])
+        .collect();
+    splitters.dedup();
+    // cuts[c][r]: entries of run r below cut c; the first and last cuts are the runs' ends.
+    let inner = splitters
+        .par_iter()
+        .map(|&key| {
+            runs.iter()
+                .zip(&files)
+                .map(|(run, file)| runs::entries_below(run, file, rb, key))
+                .collect::<Result<Vec<u64>, StoreError>>()
+        })
+        .collect::<Result<Vec<_>, StoreError>>()?;
+    let mut cuts = Vec::with_capacity(inner.len() + 2);
+    cuts.push(vec![0; runs.len()]);
+    cuts.extend(inner);
+    cuts.push(runs.iter().map(|r| r.count).collect());
+    // Per thread: a cursor buffer per run and a block of records, within the budget.
+    let entry = 8 + rb;
+    let cursor_bytes = (budget / 2 / (threads * runs.len()).max(1)).clamp(entry * 16, 4 << 20);
+    let block_points = ((budget / 4 / threads / rb) as u64 / k).max(1) * k;
+    let fragments = Mutex::new(Vec::new());
+    let written = AtomicU64::new(0);
+    (0..cuts.len() - 1).into_par_iter().try_for_each(|c| {
+        let slices: Vec<RunSlice<'_>> = runs
+            .iter()
+            .zip(&files)
+            .enumerate()
+            .map(|(r, (run, file))| RunSlice {
+                run,
+                file,
+                start: cuts[c][r],
+                end: cuts[c + 1][r],
+            })
+            .filter(|s| s.start < s.end)
+            .collect();
+        let first = cuts[c].iter().sum();
+        let mut router = Router {
+            em,
+            k,
+            n,
+            rb,
+            block_points,
+            buf: Vec::new(),
+            start: first,
+            pos: first,
+            fragments: &fragments,
+            written: &written,
+            progress,
+        };
+        runs::merge(&slices, rb, cursor_bytes, |e| router.push(&e[8..]))?;
+        router.finish()
+    })?;
+    let mut fragments = fragments.into_inner().unwrap_or_else(|e| e.into_inner());
+    fragments.sort_by_key(|f: &(u64, Vec<u8>)| f.0);
+    let mut i = 0;
+    while i < fragments.len() {
+        let p = fragments[i].0 / k;
+        let (start, end) = (p * k, (p * k + k).min(n));
+        let mut records = Vec::with_capacity((end - start) as usize * rb);
+        let mut at = start;
+        while i < fragments.len() && fragments[i].0 / k == p && fragments[i].0 == at {
+            records.extend_from_slice(&fragments[i].1);
+            at += (fragments[i].1.len() / rb) as u64;
+            i += 1;
         }
-        // Closing our ends lets a blocked producer see that we stopped.
-        drop(full_rx);
-        drop(free_tx);
-        let merged = producer
-            .join()
-            .map_err(|_| StoreError::build(emitter.path(), "the merging thread panicked"))?;
-        written?;
-        let merged = merged?;
-        if merged != n || emitter.next_pointlet() != pointlets {
+        if at != end {
             return Err(StoreError::build(
-                emitter.path(),
+                em.path(),
                 format!(
-                    "internal error: merged {merged} of {n} points into {} of {pointlets} pointlets",
-                    emitter.next_pointlet()
+                    "internal error: pointlet {p} was merged up to point {at} of {start}..{end}"
                 ),
             ));
         }
+        em.block(
+            p,
+            p + 1,
+            &Source::Sorted {
+                records: &records,
+                first: start,
+            },
+        )?;
+    }
+    // Ranges report as they finish, in any order: the last word is the total.
+    report(progress, BuildPhase::Writing, n, n);
+    Ok(())
+}
+
+/// Takes one key range's merged records in order and emits them as blocks of whole
+/// pointlets; the pieces of pointlets that the range shares with its neighbours are set aside.
+struct Router<'r> {
+    em: &'r Emitter<'r>,
+    k: u64,
+    n: u64,
+    rb: usize,
+    block_points: u64,
+    /// Records of sorted positions `start..pos`.
+    buf: Vec<u8>,
+    start: u64,
+    pos: u64,
+    fragments: &'r Mutex<Vec<(u64, Vec<u8>)>>,
+    written: &'r AtomicU64,
+    progress: &'r Progress,
+}
+
+impl Router<'_> {
+    fn push(&mut self, record: &[u8]) -> Result<(), StoreError> {
+        self.buf.extend_from_slice(record);
+        self.pos += 1;
+        if self.pos.is_multiple_of(self.k) || self.pos == self.n {
+            if !self.start.is_multiple_of(self.k) {
+                self.set_aside();
+            } else if self.pos - self.start >= self.block_points || self.pos == self.n {
+                self.flush()?;
+            }
+        }
         Ok(())
-    })
+    }
+
+    /// Emits the whole pointlets `start..pos`.
+    fn flush(&mut self) -> Result<(), StoreError> {
+        let (p0, p1) = (self.start / self.k, self.pos.div_ceil(self.k));
+        let source = Source::Sorted {
+            records: &self.buf,
+            first: self.start,
+        };
+        self.em.block(p0, p1, &source)?;
+        let count = self.pos - self.start;
+        let done = self.written.fetch_add(count, Ordering::Relaxed) + count;
+        report(self.progress, BuildPhase::Writing, done, self.n);
+        self.buf.clear();
+        self.start = self.pos;
+        Ok(())
+    }
+
+    /// Keeps `start..pos`, part of a pointlet another range completes, for the end.
+    fn set_aside(&mut self) {
+        let piece = std::mem::take(&mut self.buf);
+        let mut fragments = self.fragments.lock().unwrap_or_else(|e| e.into_inner());
+        fragments.push((self.start, piece));
+        self.start = self.pos;
+    }
+
+    fn finish(mut self) -> Result<(), StoreError> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        if self.start.is_multiple_of(self.k) {
+            let whole_end = if self.pos == self.n {
+                self.n
+            } else {
+                self.pos / self.k * self.k
+            };
+            if whole_end > self.start {
+                let tail = self
+                    .buf
+                    .split_off((whole_end - self.start) as usize * self.rb);
+                let end = self.pos;
+                self.pos = whole_end;
+                self.flush()?;
+                self.buf = tail;
+                self.pos = end;
+            }
+        }
+        if !self.buf.is_empty() {
+            self.set_aside();
+        }
+        Ok(())
+    }
+}
+
+/// Quantizes, keys and packs points `from..from + pairs.len()` of `batch` into `recs` and
+/// `pairs` (run indices from `index`). Returns their raw bounds, or the offset (from `from`)
+/// of the first bad point and why.
+#[allow(clippy::too_many_arguments)]
+fn key_and_pack(
+    batch: &PointBatch,
+    from: usize,
+    q: Quantization,
+    grid: KeyGrid,
+    rl: &RecordLayout,
+    index: usize,
+    recs: &mut [u8],
+    pairs: &mut [(u64, u32)],
+) -> KeyChunk {
+    let mut lo = [i32::MAX; 3];
+    let mut hi = [i32::MIN; 3];
+    for (j, (rec, pair)) in recs
+        .chunks_exact_mut(rl.len)
+        .zip(pairs.iter_mut())
+        .enumerate()
+    {
+        let p = batch.xyz[from + j];
+        let raw = q
+            .quantize(p)
+            .map_err(|e| (j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
+        for a in 0..3 {
+            lo[a] = lo[a].min(raw[a]);
+            hi[a] = hi[a].max(raw[a]);
+        }
+        *pair = (grid.hilbert(q.dequantize(raw)), (index + j) as u32);
+        rl.pack(batch, from + j, raw, rec);
+    }
+    Ok((lo, hi))
 }
 
 /// Recomputes the keys of a run from its records' quantized positions (their first 12 bytes).

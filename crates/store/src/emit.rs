@@ -11,6 +11,8 @@ use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization};
 use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::Mutex;
 
 /// Where each stream's value sits inside a record.
 #[derive(Clone, Debug)]
@@ -114,163 +116,196 @@ pub(crate) enum Source<'a> {
 }
 
 impl Source<'_> {
-    /// The records of sorted positions `[first, first + count)`, contiguous.
-    fn records<'s>(
-        &'s self,
-        first: u64,
-        count: usize,
-        rb: usize,
-        scratch: &'s mut Vec<u8>,
-    ) -> &'s [u8] {
+    fn records(&self) -> &[u8] {
         match self {
-            Source::Run { records, order } => {
-                scratch.clear();
-                let start = first as usize;
-                for (_, idx) in &order[start..start + count] {
-                    let at = *idx as usize * rb;
-                    scratch.extend_from_slice(&records[at..at + rb]);
-                }
-                scratch
+            Source::Run { records, .. } | Source::Sorted { records, .. } => records,
+        }
+    }
+
+    /// Indices into [`Self::records`] of sorted positions `first + perm[j]`, in j order.
+    fn rows(&self, first: u64, perm: &[u32], rows: &mut Vec<u32>) {
+        rows.clear();
+        match self {
+            Source::Run { order, .. } => {
+                let at = &order[first as usize..];
+                rows.extend(perm.iter().map(|&j| at[j as usize].1));
             }
-            Source::Sorted {
-                records,
-                first: base,
-            } => {
-                let at = (first - base) as usize * rb;
-                &records[at..at + count * rb]
+            Source::Sorted { first: base, .. } => {
+                let at = (first - base) as u32;
+                rows.extend(perm.iter().map(|&j| at + j));
             }
         }
     }
 }
 
-/// Copies field `(offset, B bytes)` of records `perm[j]` into slot j of `out`.
-fn gather<const B: usize>(out: &mut [u8], src: &[u8], rb: usize, offset: usize, perm: &[u32]) {
-    for (o, &j) in out.chunks_exact_mut(B).zip(perm) {
-        let s = j as usize * rb + offset;
+/// Copies field `(offset, B bytes)` of records `rows[j]` into slot j of `out`.
+fn gather<const B: usize>(out: &mut [u8], src: &[u8], rb: usize, offset: usize, rows: &[u32]) {
+    for (o, &r) in out.chunks_exact_mut(B).zip(rows) {
+        let s = r as usize * rb + offset;
         o.copy_from_slice(&src[s..s + B]);
     }
 }
 
-fn gather_any(out: &mut [u8], src: &[u8], rb: usize, offset: usize, bytes: usize, perm: &[u32]) {
-    for (o, &j) in out.chunks_exact_mut(bytes).zip(perm) {
-        let s = j as usize * rb + offset;
+fn gather_any(out: &mut [u8], src: &[u8], rb: usize, offset: usize, bytes: usize, rows: &[u32]) {
+    for (o, &r) in out.chunks_exact_mut(bytes).zip(rows) {
+        let s = r as usize * rb + offset;
         o.copy_from_slice(&src[s..s + bytes]);
     }
 }
 
-/// One block's stream bytes waiting to be written at sorted position `first`.
-struct Pending {
+/// One block's bytes on their way to the writer thread.
+struct WriteJob {
+    /// Sorted position of the block's first point.
     first: u64,
-    buffers: Vec<Vec<u8>>,
+    p0: u64,
+    streams: Vec<Vec<u8>>,
+    table: Vec<u8>,
+    checks: Vec<u8>,
 }
 
-/// Writes the streams, pointlet table and checksum table of a store being built, block by
-/// block in pointlet order. A block's streams are written while the next block is computed.
+/// CRC32 state of one block's table and checksum-table bytes; blocks combine in order.
+struct BlockCrc {
+    p0: u64,
+    p1: u64,
+    table: crc32fast::Hasher,
+    checks: crc32fast::Hasher,
+}
+
+/// What the emitter writes and how.
+pub(crate) struct EmitPlan<'a> {
+    pub file: &'a File,
+    /// The output as the user named it (errors name it, not the temporary file).
+    pub path: &'a Path,
+    pub plan: &'a Plan,
+    pub rl: &'a RecordLayout,
+    pub k: u64,
+    pub points: u64,
+    pub seed: u64,
+    pub quantization: Quantization,
+}
+
+/// State the emitter shares with its writer thread.
+#[derive(Default)]
+struct Shared {
+    /// Stream buffers written out and ready for reuse.
+    spare: Mutex<Vec<Vec<Vec<u8>>>>,
+    crcs: Mutex<Vec<BlockCrc>>,
+    /// The writer's error; it stops at the first.
+    failed: Mutex<Option<StoreError>>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    // A poisoned lock means a thread panicked; the build fails anyway, the data is still usable.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Writes the streams, pointlet table and checksum table of a store being built. Blocks of
+/// whole pointlets may be emitted from any thread and in any order; one writer thread writes
+/// them in place while the callers compute the next ones.
 pub(crate) struct Emitter<'a> {
-    file: &'a File,
-    path: &'a Path,
-    plan: &'a Plan,
-    rl: &'a RecordLayout,
-    k: u64,
-    points: u64,
-    seed: u64,
-    quantization: Quantization,
-    table_crc: crc32fast::Hasher,
-    checksums_crc: crc32fast::Hasher,
-    /// Pointlets emitted so far; blocks must come in order.
-    next_pointlet: u64,
-    pending: Option<Pending>,
-    /// Stream buffers to reuse.
-    spare: Vec<Vec<u8>>,
+    out: &'a EmitPlan<'a>,
+    shared: &'a Shared,
+    jobs: SyncSender<WriteJob>,
 }
 
 /// What the emitter computed for one pointlet: its table entry and stream checksums.
 type PointletResult = (PointletEntry, Vec<u32>);
 
 impl<'a> Emitter<'a> {
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        file: &'a File,
-        path: &'a Path,
-        plan: &'a Plan,
-        rl: &'a RecordLayout,
-        k: u64,
-        points: u64,
-        seed: u64,
-        quantization: Quantization,
-    ) -> Self {
-        Emitter {
-            file,
-            path,
-            plan,
-            rl,
-            k,
-            points,
-            seed,
-            quantization,
-            table_crc: crc32fast::Hasher::new(),
-            checksums_crc: crc32fast::Hasher::new(),
-            next_pointlet: 0,
-            pending: None,
-            spare: Vec::new(),
+    /// Runs `body` with an emitter, then waits for every write. Returns the body's result and
+    /// the CRC32s of the pointlet table and of the checksum table; fails unless the body
+    /// emitted every pointlet exactly once.
+    pub fn run<R>(
+        out: &EmitPlan<'_>,
+        body: impl FnOnce(&Emitter<'_>) -> Result<R, StoreError>,
+    ) -> Result<(R, u32, u32), StoreError> {
+        let shared = Shared::default();
+        // Two blocks queued keep the writer busy while bounding the memory in flight.
+        let (jobs, queue) = sync_channel::<WriteJob>(2);
+        let result = std::thread::scope(|scope| {
+            let writer = scope.spawn(|| write_loop(out, &shared, queue));
+            let emitter = Emitter {
+                out,
+                shared: &shared,
+                jobs,
+            };
+            let result = body(&emitter);
+            drop(emitter);
+            let joined = writer.join();
+            if joined.is_err() {
+                return Err(StoreError::build(out.path, "the writing thread panicked"));
+            }
+            result
+        });
+        if let Some(e) = lock(&shared.failed).take() {
+            return Err(e);
         }
-    }
-
-    pub fn path(&self) -> &Path {
-        self.path
+        let result = result?;
+        let mut crcs = std::mem::take(&mut *lock(&shared.crcs));
+        crcs.sort_by_key(|c| c.p0);
+        let (mut table, mut checks) = (crc32fast::Hasher::new(), crc32fast::Hasher::new());
+        let mut next = 0;
+        for c in &crcs {
+            if c.p0 != next {
+                break;
+            }
+            table.combine(&c.table);
+            checks.combine(&c.checks);
+            next = c.p1;
+        }
+        let pointlets = out.points.div_ceil(out.k);
+        if next != pointlets || crcs.last().map(|c| c.p1) != Some(pointlets) {
+            return Err(StoreError::build(
+                out.path,
+                format!("internal error: the pointlets emitted do not cover 0..{pointlets} once"),
+            ));
+        }
+        Ok((result, table.finalize(), checks.finalize()))
     }
 
     pub fn k(&self) -> u64 {
-        self.k
+        self.out.k
     }
 
     pub fn points(&self) -> u64 {
-        self.points
+        self.out.points
     }
 
     pub fn record_len(&self) -> usize {
-        self.rl.len
-    }
-
-    pub fn next_pointlet(&self) -> u64 {
-        self.next_pointlet
+        self.out.rl.len
     }
 
     pub fn pointlet_count(&self) -> u64 {
-        self.points.div_ceil(self.k)
+        self.out.points.div_ceil(self.out.k)
     }
 
-    /// First sorted position of pointlet `p`.
-    fn first_point(&self, p: u64) -> u64 {
-        p * self.k
+    pub fn path(&self) -> &Path {
+        self.out.path
     }
 
-    /// Emits pointlets `[p0, p1)` (the next ones) whose records `source` supplies.
-    pub fn block(&mut self, p0: u64, p1: u64, source: &Source<'_>) -> Result<(), StoreError> {
-        if p0 != self.next_pointlet || p1 <= p0 || p1 > self.pointlet_count() {
+    fn writer_stopped(&self) -> StoreError {
+        StoreError::build(self.out.path, "the writing thread stopped")
+    }
+
+    /// Emits pointlets `[p0, p1)`, whose records `source` supplies.
+    pub fn block(&self, p0: u64, p1: u64, source: &Source<'_>) -> Result<(), StoreError> {
+        let o = self.out;
+        if p1 <= p0 || p1 > self.pointlet_count() {
             return Err(StoreError::build(
-                self.path,
-                format!("internal error: pointlets {p0}..{p1} emitted out of order"),
+                o.path,
+                format!("internal error: pointlets {p0}..{p1} do not exist"),
             ));
         }
-        let a = self.first_point(p0);
-        let n = (self.first_point(p1).min(self.points) - a) as usize;
-        let rl = self.rl;
-        let mut buffers = std::mem::take(&mut self.spare);
-        buffers.resize_with(rl.fields.len(), Vec::new);
-        for (buf, (_, _, bpp)) in buffers.iter_mut().zip(&rl.fields) {
+        let a = p0 * o.k;
+        let n = ((p1 * o.k).min(o.points) - a) as usize;
+        let rl = o.rl;
+        let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
+        streams.resize_with(rl.fields.len(), Vec::new);
+        for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
             buf.clear();
             buf.resize(n * bpp, 0);
         }
-        let pending = self.pending.take();
-        let (written, results) = rayon::join(
-            || self.write_streams(pending),
-            || self.compute(p0, p1, source, &mut buffers),
-        );
-        if let Some(reuse) = written? {
-            self.spare = reuse;
-        }
-        self.pending = Some(Pending { first: a, buffers });
+        let results = self.compute(p0, p1, source, &mut streams);
         let mut table = vec![0u8; results.len() * TABLE_ENTRY_LEN as usize];
         let mut checks = Vec::with_capacity(results.len() * rl.fields.len() * 4);
         for ((entry, crcs), out) in results
@@ -282,82 +317,67 @@ impl<'a> Emitter<'a> {
                 checks.extend_from_slice(&c.to_le_bytes());
             }
         }
-        self.table_crc.update(&table);
-        self.checksums_crc.update(&checks);
-        let table_at = self.plan.table.offset + p0 * TABLE_ENTRY_LEN;
-        pio::write_all_at(self.file, &table, table_at)
-            .map_err(|e| StoreError::io(self.path, "writing the pointlet table", e))?;
-        let checks_at = self.plan.checksums.offset + p0 * 4 * rl.fields.len() as u64;
-        pio::write_all_at(self.file, &checks, checks_at)
-            .map_err(|e| StoreError::io(self.path, "writing the checksum table", e))?;
-        self.next_pointlet = p1;
-        Ok(())
-    }
-
-    /// Writes the last block and returns the CRC32s of the pointlet and checksum tables.
-    pub fn finish(mut self) -> Result<(u32, u32), StoreError> {
-        let pending = self.pending.take();
-        self.write_streams(pending)?;
-        Ok((self.table_crc.finalize(), self.checksums_crc.finalize()))
-    }
-
-    /// Writes a block's streams in place; gives the buffers back for reuse.
-    fn write_streams(&self, pending: Option<Pending>) -> Result<Option<Vec<Vec<u8>>>, StoreError> {
-        let Some(p) = pending else {
-            return Ok(None);
+        let mut crc = BlockCrc {
+            p0,
+            p1,
+            table: crc32fast::Hasher::new(),
+            checks: crc32fast::Hasher::new(),
         };
-        for (buf, info) in p.buffers.iter().zip(&self.plan.streams) {
-            let at = info.offset + p.first * info.bytes_per_point as u64;
-            pio::write_all_at(self.file, buf, at).map_err(|e| {
-                StoreError::io(
-                    self.path,
-                    format!("writing the {} stream", info.kind.name()),
-                    e,
-                )
-            })?;
-        }
-        Ok(Some(p.buffers))
+        crc.table.update(&table);
+        crc.checks.update(&checks);
+        lock(&self.shared.crcs).push(crc);
+        self.jobs
+            .send(WriteJob {
+                first: a,
+                p0,
+                streams,
+                table,
+                checks,
+            })
+            .map_err(|_| self.writer_stopped())
     }
 
-    /// Shuffles, splits, bounds and checksums pointlets `[p0, p1)` into `buffers`.
+    /// Shuffles, splits, bounds and checksums pointlets `[p0, p1)` into `streams`.
     fn compute(
         &self,
         p0: u64,
         p1: u64,
         source: &Source<'_>,
-        buffers: &mut [Vec<u8>],
+        streams: &mut [Vec<u8>],
     ) -> Vec<PointletResult> {
-        let rl = self.rl;
-        let k = self.k as usize;
+        let o = self.out;
+        let rl = o.rl;
+        let k = o.k as usize;
         // Each pointlet's slice of every stream buffer, so pointlets can be filled in parallel.
         let mut slices: Vec<Vec<&mut [u8]>> = (p0..p1)
             .map(|_| Vec::with_capacity(rl.fields.len()))
             .collect();
-        for (buf, (_, _, bpp)) in buffers.iter_mut().zip(&rl.fields) {
+        for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
             for (s, chunk) in slices.iter_mut().zip(buf.chunks_mut(k * bpp)) {
                 s.push(chunk);
             }
         }
-        let (seed, q) = (self.seed, self.quantization);
+        let (seed, q) = (o.seed, o.quantization);
+        let records = source.records();
         slices
             .into_par_iter()
             .enumerate()
-            .map_init(Vec::new, |scratch, (j, mut outs)| {
+            .map_init(Vec::new, |rows, (j, mut outs)| {
                 let p = p0 + j as u64;
-                let first = self.first_point(p);
-                let count = (self.points - first).min(self.k) as usize;
-                let records = source.records(first, count, rl.len, scratch);
+                let first = p * o.k;
+                let count = (o.points - first).min(o.k) as usize;
                 let perm = permutation(count, mix_seed(seed, p));
+                source.rows(first, &perm, rows);
                 for ((_, offset, bpp), out) in rl.fields.iter().zip(outs.iter_mut()) {
-                    let (o, b) = (*offset, *bpp);
+                    let (at, b) = (*offset, *bpp);
                     match b {
-                        1 => gather::<1>(out, records, rl.len, o, &perm),
-                        2 => gather::<2>(out, records, rl.len, o, &perm),
-                        4 => gather::<4>(out, records, rl.len, o, &perm),
-                        6 => gather::<6>(out, records, rl.len, o, &perm),
-                        8 => gather::<8>(out, records, rl.len, o, &perm),
-                        12 => gather::<12>(out, records, rl.len, o, &perm),
-                        _ => gather_any(out, records, rl.len, o, b, &perm),
+                        1 => gather::<1>(out, records, rl.len, at, rows),
+                        2 => gather::<2>(out, records, rl.len, at, rows),
+                        4 => gather::<4>(out, records, rl.len, at, rows),
+                        6 => gather::<6>(out, records, rl.len, at, rows),
+                        8 => gather::<8>(out, records, rl.len, at, rows),
+                        12 => gather::<12>(out, records, rl.len, at, rows),
+                        _ => gather_any(out, records, rl.len, at, b, rows),
                     }
                 }
                 let aabb = position_bounds(outs[0], &q);
@@ -372,6 +392,44 @@ impl<'a> Emitter<'a> {
                 )
             })
             .collect()
+    }
+}
+
+/// The writer thread: writes each block's streams and table rows in place, in arrival order,
+/// and hands the stream buffers back for reuse. Stops at the first error.
+fn write_loop(out: &EmitPlan<'_>, shared: &Shared, queue: Receiver<WriteJob>) {
+    let plan = out.plan;
+    let streams = out.rl.fields.len() as u64;
+    for job in queue {
+        let mut result = Ok(());
+        for (buf, info) in job.streams.iter().zip(&plan.streams) {
+            let at = info.offset + job.first * info.bytes_per_point as u64;
+            result = result.and_then(|()| {
+                pio::write_all_at(out.file, buf, at).map_err(|e| {
+                    StoreError::io(
+                        out.path,
+                        format!("writing the {} stream", info.kind.name()),
+                        e,
+                    )
+                })
+            });
+        }
+        let table_at = plan.table.offset + job.p0 * TABLE_ENTRY_LEN;
+        let checks_at = plan.checksums.offset + job.p0 * 4 * streams;
+        let result = result
+            .and_then(|()| {
+                pio::write_all_at(out.file, &job.table, table_at)
+                    .map_err(|e| StoreError::io(out.path, "writing the pointlet table", e))
+            })
+            .and_then(|()| {
+                pio::write_all_at(out.file, &job.checks, checks_at)
+                    .map_err(|e| StoreError::io(out.path, "writing the checksum table", e))
+            });
+        if let Err(e) = result {
+            *lock(&shared.failed) = Some(e);
+            return;
+        }
+        lock(&shared.spare).push(job.streams);
     }
 }
 

@@ -21,6 +21,9 @@ pub enum StoreError {
     /// The input headers cannot be merged into one store header.
     #[error("{message}")]
     Meta { message: String },
+    /// An input could not be read while building (the reader's error names the file).
+    #[error("{0}")]
+    Input(#[source] pointlet_core::PartError),
     /// A read asked for something the store does not hold (pointlet index, range, stream).
     #[error("{}: {message}", path.display())]
     Request { path: PathBuf, message: String },

@@ -16,6 +16,7 @@ mod meta;
 mod pio;
 mod reader;
 mod runs;
+mod sort;
 
 pub use builder::{BuildConfig, BuildPhase, BuildProgress, BuildSummary, StoreBuilder};
 pub use error::StoreError;

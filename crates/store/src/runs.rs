@@ -16,7 +16,7 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
 
 /// Run files merged at once; more runs are merged in passes (bounded memory and descriptors).
-pub(crate) const MAX_FANOUT: usize = 128;
+pub(crate) const MAX_FANOUT: usize = 512;
 
 /// A name for a temporary file that no other builder (in this or another process) uses.
 pub(crate) fn temp_name(dir: &Path, stem: &str, what: &str) -> PathBuf {
@@ -25,11 +25,16 @@ pub(crate) fn temp_name(dir: &Path, stem: &str, what: &str) -> PathBuf {
     dir.join(format!(".{stem}.{}.{n}.{what}", std::process::id()))
 }
 
+/// Entries between two keys of a run's sparse index.
+pub(crate) const SPARSE: usize = 1024;
+
 /// A temporary run file; dropping it removes the file.
 pub(crate) struct RunFile {
     pub path: PathBuf,
     /// Entries in the file.
     pub count: u64,
+    /// The key of every [`SPARSE`]-th entry: where to cut the run for a parallel merge.
+    pub sparse: Vec<u64>,
 }
 
 impl Drop for RunFile {
@@ -43,7 +48,14 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
     let file =
         pointlet_core::cleanup::create(&path, OpenOptions::new().write(true).create_new(true))
             .map_err(|e| StoreError::io(&path, "creating a temporary run file", e))?;
-    Ok((RunFile { path, count: 0 }, file))
+    Ok((
+        RunFile {
+            path,
+            count: 0,
+            sparse: Vec::new(),
+        },
+        file,
+    ))
 }
 
 /// Writes the records of an in-memory run in sorted `order` as a run file. One chunk is
@@ -90,6 +102,7 @@ pub(crate) fn write_run(
         std::mem::swap(&mut ready, &mut next);
     }
     run.count = order.len() as u64;
+    run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
     Ok(run)
 }
 
@@ -120,11 +133,6 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
     Ok(out)
 }
 
-/// Sorts (key, index) pairs: by key, ties by input order.
-pub(crate) fn sort_pairs(pairs: &mut [(u64, u32)]) {
-    pairs.par_sort_unstable();
-}
-
 /// A run in memory: records in input order and their (key, index) pairs.
 #[derive(Default)]
 pub(crate) struct Run {
@@ -149,7 +157,7 @@ impl Spiller {
         let (finished, done) = sync_channel::<SpillResult>(2);
         let worker = std::thread::spawn(move || {
             for (path, mut run) in todo {
-                sort_pairs(&mut run.pairs);
+                crate::sort::sort_pairs(&mut run.pairs);
                 let result = write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
                     run.records.clear();
                     run.pairs.clear();
@@ -204,47 +212,54 @@ impl Drop for Spiller {
     }
 }
 
-/// Reads a run file front to back through a buffer of whole entries.
+/// Entries `[start, end)` of one run, and the open file to read them from.
+pub(crate) struct RunSlice<'a> {
+    pub run: &'a RunFile,
+    pub file: &'a File,
+    pub start: u64,
+    pub end: u64,
+}
+
+/// Reads a stretch of a run file front to back through a buffer of whole entries, with
+/// positioned reads so that many cursors can share one file.
 struct Cursor<'a> {
-    run: &'a RunFile,
-    file: File,
+    slice: &'a RunSlice<'a>,
     entry: usize,
     buf: Vec<u8>,
     pos: usize,
     end: usize,
-    unread: u64,
+    /// Next entry to load from the file.
+    next: u64,
 }
 
 impl<'a> Cursor<'a> {
-    fn open(run: &'a RunFile, entry: usize, buf_bytes: usize) -> Result<Cursor<'a>, StoreError> {
-        let file = File::open(&run.path)
-            .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+    fn new(slice: &'a RunSlice<'a>, entry: usize, buf_bytes: usize) -> Cursor<'a> {
         let per_fill = (buf_bytes / entry).max(1) as u64;
-        let len = per_fill.min(run.count) as usize * entry;
-        Ok(Cursor {
-            run,
-            file,
+        let len = per_fill.min(slice.end - slice.start) as usize * entry;
+        Cursor {
+            slice,
             entry,
             buf: vec![0u8; len],
             pos: 0,
             end: 0,
-            unread: run.count,
-        })
+            next: slice.start,
+        }
     }
 
-    /// Loads the next entries; false at the end of the run.
+    /// Loads the next entries; false at the end of the stretch.
     fn fill(&mut self) -> Result<bool, StoreError> {
-        if self.unread == 0 {
+        let left = self.slice.end - self.next;
+        if left == 0 {
             return Ok(false);
         }
-        let n = ((self.buf.len() / self.entry) as u64).min(self.unread) as usize;
+        let n = ((self.buf.len() / self.entry) as u64).min(left) as usize;
         let bytes = n * self.entry;
-        self.file
-            .read_exact(&mut self.buf[..bytes])
-            .map_err(|e| StoreError::io(&self.run.path, "reading a temporary run file", e))?;
+        let at = self.next * self.entry as u64;
+        crate::pio::read_exact_at(self.slice.file, &mut self.buf[..bytes], at)
+            .map_err(|e| StoreError::io(&self.slice.run.path, "reading a temporary run file", e))?;
         self.pos = 0;
         self.end = bytes;
-        self.unread -= n as u64;
+        self.next += n as u64;
         Ok(true)
     }
 
@@ -256,7 +271,7 @@ impl<'a> Cursor<'a> {
         u64::from_le_bytes(crate::format::array(&self.buf[self.pos..self.pos + 8]))
     }
 
-    /// Moves to the next entry; false at the end of the run.
+    /// Moves to the next entry; false at the end of the stretch.
     fn advance(&mut self) -> Result<bool, StoreError> {
         self.pos += self.entry;
         if self.pos < self.end {
@@ -266,19 +281,19 @@ impl<'a> Cursor<'a> {
     }
 }
 
-/// Merges `runs` (in input order) and hands every entry `[key][record]` to `sink` in
+/// Merges `slices` (in input order) and hands every entry `[key][record]` to `sink` in
 /// (key, input order) order. Returns the number of entries.
 pub(crate) fn merge(
-    runs: &[RunFile],
+    slices: &[RunSlice<'_>],
     rb: usize,
     buf_bytes: usize,
     mut sink: impl FnMut(&[u8]) -> Result<(), StoreError>,
 ) -> Result<u64, StoreError> {
     let entry = 8 + rb;
-    let mut cursors = Vec::with_capacity(runs.len());
-    let mut heap = BinaryHeap::with_capacity(runs.len());
-    for (i, run) in runs.iter().enumerate() {
-        let mut c = Cursor::open(run, entry, buf_bytes)?;
+    let mut cursors = Vec::with_capacity(slices.len());
+    let mut heap = BinaryHeap::with_capacity(slices.len());
+    for (i, slice) in slices.iter().enumerate() {
+        let mut c = Cursor::new(slice, entry, buf_bytes);
         if c.fill()? {
             heap.push(Reverse((c.key(), i)));
         }
@@ -298,6 +313,45 @@ pub(crate) fn merge(
         }
     }
     Ok(count)
+}
+
+/// Opens every run for positioned reads.
+pub(crate) fn open_runs(runs: &[RunFile]) -> Result<Vec<File>, StoreError> {
+    runs.iter()
+        .map(|r| {
+            File::open(&r.path)
+                .map_err(|e| StoreError::io(&r.path, "opening a temporary run file", e))
+        })
+        .collect()
+}
+
+/// Entries of `run` whose key is below `key`: the sparse index finds the stretch of
+/// [`SPARSE`] entries, one positioned read of it the exact place.
+pub(crate) fn entries_below(
+    run: &RunFile,
+    file: &File,
+    rb: usize,
+    key: u64,
+) -> Result<u64, StoreError> {
+    let j = run.sparse.partition_point(|&k| k < key);
+    if j == 0 {
+        return Ok(0);
+    }
+    // Entry (j - 1)·SPARSE is below `key`, entry j·SPARSE (if any) is not.
+    let lo = ((j - 1) * SPARSE) as u64 + 1;
+    let hi = ((j * SPARSE) as u64).min(run.count);
+    if lo >= hi {
+        return Ok(hi);
+    }
+    let entry = 8 + rb;
+    let mut buf = vec![0u8; (hi - lo) as usize * entry];
+    crate::pio::read_exact_at(file, &mut buf, lo * entry as u64)
+        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
+    let below = buf
+        .chunks_exact(entry)
+        .take_while(|e| u64::from_le_bytes(crate::format::array(&e[..8])) < key)
+        .count();
+    Ok(lo + below as u64)
 }
 
 /// Merges consecutive groups of runs until at most [`MAX_FANOUT`] remain.
@@ -326,16 +380,36 @@ pub(crate) fn reduce_runs(
             let (mut run, file) = create_run(temp_name(dir, stem, "run"))?;
             let mut w = std::io::BufWriter::with_capacity(buf_bytes.max(1 << 16), file);
             let per_group = buf_bytes / group.len();
-            let count = merge(&group, rb, per_group, |e| {
+            let files = open_runs(&group)?;
+            let slices: Vec<RunSlice<'_>> = group
+                .iter()
+                .zip(&files)
+                .map(|(run, file)| RunSlice {
+                    run,
+                    file,
+                    start: 0,
+                    end: run.count,
+                })
+                .collect();
+            let mut sparse = Vec::new();
+            let mut seen = 0usize;
+            let count = merge(&slices, rb, per_group, |e| {
+                if seen.is_multiple_of(SPARSE) {
+                    sparse.push(u64::from_le_bytes(crate::format::array(&e[..8])));
+                }
+                seen += 1;
                 w.write_all(e)
                     .map_err(|err| StoreError::io(&run.path, "writing a temporary run file", err))
             })?;
+            run.sparse = sparse;
             w.flush()
                 .map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
             run.count = count;
             merged_points += count;
             progress(merged_points, total);
             // The group's files go away here; the merged run replaces them.
+            drop(slices);
+            drop(files);
             drop(group);
             next.push(run);
         }

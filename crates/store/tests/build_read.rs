@@ -409,3 +409,90 @@ fn wrong_header_bounds_give_the_same_store() {
         }
     }
 }
+
+/// Batches served as parts, decoded from whatever thread asks.
+struct Parts(Vec<pointlet_core::PointBatch>, Vec<u64>);
+
+impl pointlet_core::PartedSource for Parts {
+    fn part_sizes(&self) -> &[u64] {
+        &self.1
+    }
+
+    fn decode_part(
+        &self,
+        i: usize,
+        out: &mut pointlet_core::PointBatch,
+        _scratch: &mut Vec<u8>,
+    ) -> Result<(), pointlet_core::PartError> {
+        if self.0[i].xyz.iter().any(|p| p[0] < -1e300) {
+            return Err(format!("part {i} is damaged").into());
+        }
+        *out = self.0[i].clone();
+        Ok(())
+    }
+}
+
+fn build_parts(out: &std::path::Path, c: BuildConfig, parts: &Parts, n: usize) -> u64 {
+    let m = meta(RGB_GPS_EXTRA, n as u64);
+    let mut b = StoreBuilder::create(out, c, &m, vec!["synthetic".into()]).unwrap();
+    b.push_parts(parts).unwrap();
+    b.finish().unwrap().runs as u64
+}
+
+#[test]
+fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
+    let dir = tempfile::tempdir().unwrap();
+    // Enough points for the radix pass of the in-memory sort; parts of uneven sizes.
+    let n = 150_000;
+    let input = batches(RGB_GPS_EXTRA, n, 9_973, 4);
+    let parts = Parts(
+        input.clone(),
+        input.iter().map(|b| b.len() as u64).collect(),
+    );
+    let reference = dir.path().join("ref.pointlet");
+    build(
+        &reference,
+        config(1 << 30, 300, 5),
+        &meta(RGB_GPS_EXTRA, n as u64),
+        &input,
+    );
+    let want = std::fs::read(&reference).unwrap();
+    for threads in [1, 3, 8] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for budget in [1u64 << 30, 2 << 20, 0] {
+            let out = dir.path().join(format!("t{threads}-{budget}.pointlet"));
+            let runs = pool.install(|| build_parts(&out, config(budget, 300, 5), &parts, n));
+            assert_eq!(
+                runs > 0,
+                budget < 1 << 30,
+                "{threads} threads, budget {budget}"
+            );
+            assert!(
+                std::fs::read(&out).unwrap() == want,
+                "{threads} threads, budget {budget}: the store differs"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_damaged_part_fails_the_build_with_the_readers_message_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 40_000;
+    let mut input = batches(RGB_GPS_EXTRA, n, 5_000, 2);
+    input[5].xyz[7][0] = -1e301;
+    let parts = Parts(
+        input.clone(),
+        input.iter().map(|b| b.len() as u64).collect(),
+    );
+    let out = dir.path().join("bad.pointlet");
+    let m = meta(RGB_GPS_EXTRA, n as u64);
+    let mut b = StoreBuilder::create(&out, config(1 << 30, 100, 0), &m, vec![]).unwrap();
+    let e = b.push_parts(&parts).unwrap_err().to_string();
+    assert_eq!(e, "part 5 is damaged");
+    drop(b);
+    assert!(listing(dir.path()).is_empty(), "files left behind");
+}
