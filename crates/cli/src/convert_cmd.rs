@@ -3,10 +3,9 @@
 use anyhow::{anyhow, bail, Result};
 use pointlet_core::PointBatch;
 use pointlet_io::PointReader;
-use pointlet_store::{BuildConfig, BuildProgress, StoreBuilder};
+use pointlet_store::{BuildConfig, StoreBuilder};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
-use std::sync::Arc;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -16,7 +15,8 @@ pub struct Args {
     /// The store to write (`.pointlet`).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Memory for sorting; larger inputs sort out of core through runs on disk (e.g. 2GiB).
+    /// Memory for sorting (e.g. 2GiB); larger inputs sort out of core through runs on disk.
+    /// Default: a quarter of the machine's RAM, at most 4GiB, at least 64MiB.
     #[arg(long, value_parser = crate::parse_bytes_arg)]
     pub ram_budget: Option<u64>,
     /// Folder for temporary sorted runs (default: beside the output).
@@ -102,17 +102,10 @@ pub fn run(args: Args) -> Result<()> {
         })?;
         meta.quantization = Some(q);
     }
-    let claimed: u64 = metas.iter().map(|m| m.point_count).sum();
     let started = std::time::Instant::now();
     let summary = build_store(
         &args.output,
-        config(
-            args.ram_budget,
-            args.tmp,
-            args.pointlets,
-            args.seed,
-            claimed,
-        ),
+        config(args.ram_budget, args.tmp, args.pointlets, args.seed),
         &meta,
         files.iter().map(|f| f.display().to_string()).collect(),
         readers,
@@ -136,29 +129,25 @@ pub fn config(
     tmp: Option<PathBuf>,
     pointlets: u64,
     seed: u64,
-    expected_points: u64,
 ) -> BuildConfig {
-    let bar = crate::progress::bar(expected_points, "sorting");
-    let progress: Arc<dyn Fn(BuildProgress) + Send + Sync> = Arc::new(move |p: BuildProgress| {
-        bar.set_message(format!("{:?}", p.phase).to_lowercase());
-        bar.set_length(p.total);
-        bar.set_position(p.done);
-    });
     BuildConfig {
         ram_budget: ram_budget.unwrap_or_else(default_ram_budget),
         tmp_dir: tmp,
         target_pointlets: pointlets.max(1),
         seed,
-        progress: Some(progress),
+        progress: crate::progress::build_bar(),
     }
 }
 
-/// Half of the memory available now: leaves room for the page cache and the rest of the system.
+/// The sorting budget when none is given, from the machine's RAM (1 GiB where unknown).
 pub fn default_ram_budget() -> u64 {
-    crate::available_memory()
-        .map(|a| a / 2)
-        .unwrap_or(2 << 30)
-        .max(64 << 20)
+    crate::total_memory().map_or(1 << 30, ram_budget_for_total)
+}
+
+/// A quarter of the RAM, at most 4 GiB (more crowds out the page cache and the rest of the
+/// system, issue 15), at least 64 MiB.
+fn ram_budget_for_total(total: u64) -> u64 {
+    (total / 4).clamp(64 << 20, 4 << 30)
 }
 
 /// Feeds every reader into a builder: parted files (LAS, LAZ) are decoded on all cores by the
@@ -237,4 +226,21 @@ fn refuse_overwriting_inputs(files: &[PathBuf], output: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn default_budget_is_a_quarter_of_ram_within_64_mib_and_4_gib() {
+        let f = super::ram_budget_for_total;
+        const MIB: u64 = 1 << 20;
+        const GIB: u64 = 1 << 30;
+        assert_eq!(f(8 * GIB), 2 * GIB);
+        assert_eq!(f(16 * GIB), 4 * GIB);
+        assert_eq!(f(24 * GIB), 4 * GIB);
+        assert_eq!(f(512 * GIB), 4 * GIB);
+        assert_eq!(f(1000 * MIB), 250 * MIB);
+        assert_eq!(f(128 * MIB), 64 * MIB);
+        assert_eq!(f(0), 64 * MIB);
+    }
 }

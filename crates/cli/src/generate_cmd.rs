@@ -16,7 +16,8 @@ pub struct Args {
     /// Scene seed: the same seed and count always give the same points.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// With a `.pointlet` output: memory for sorting.
+    /// With a `.pointlet` output: memory for sorting (default: a quarter of the machine's RAM,
+    /// at most 4GiB, at least 64MiB).
     #[arg(long, value_parser = crate::parse_bytes_arg)]
     pub ram_budget: Option<u64>,
     /// With a `.pointlet` output: target number of pointlets.
@@ -114,8 +115,7 @@ pub fn run(args: Args) -> Result<()> {
             writer.finish()?;
         }
         "pointlet" => {
-            let config =
-                crate::convert_cmd::config(args.ram_budget, None, args.pointlets, 0, args.points);
+            let config = crate::convert_cmd::config(args.ram_budget, None, args.pointlets, 0);
             crate::convert_cmd::build_store(
                 &args.output,
                 config,

@@ -136,8 +136,18 @@ fn chain(e: &anyhow::Error) -> String {
 
 /// Bytes of memory available now (`MemAvailable` of /proc/meminfo), where the system says.
 pub(crate) fn available_memory() -> Option<u64> {
+    meminfo_bytes("MemAvailable:")
+}
+
+/// Bytes of memory the machine has (`MemTotal` of /proc/meminfo), where the system says.
+pub(crate) fn total_memory() -> Option<u64> {
+    meminfo_bytes("MemTotal:")
+}
+
+/// One kB field of /proc/meminfo, in bytes.
+fn meminfo_bytes(field: &str) -> Option<u64> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let line = meminfo.lines().find(|l| l.starts_with(field))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
 }
