@@ -371,8 +371,8 @@ impl StoreBuilder {
             expected.saturating_mul(rb),
             cap * rb,
         );
-        self.run.pairs.resize(n0 + total, (0, 0));
-        self.run.records.resize((n0 + total) * rb, 0);
+        extend_zeroed(&mut self.run.pairs, n0 + total);
+        extend_zeroed(&mut self.run.records, (n0 + total) * rb);
         // Each part's slices of the run, and its first run index.
         let sizes = &source.part_sizes()[range.clone()];
         let mut jobs = Vec::with_capacity(sizes.len());
@@ -487,8 +487,8 @@ impl StoreBuilder {
             expected.saturating_mul(rb),
             cap * rb,
         );
-        self.run.pairs.resize(n0 + n, (0, 0));
-        self.run.records.resize((n0 + n) * rb, 0);
+        extend_zeroed(&mut self.run.pairs, n0 + n);
+        extend_zeroed(&mut self.run.records, (n0 + n) * rb);
         let (q, grid, rl) = (self.quantization, self.grid, &self.rl);
         let results: Vec<KeyChunk> = self.run.records[n0 * rb..]
             .par_chunks_mut(KEY_TASK * rb)
@@ -763,6 +763,15 @@ impl StoreBuilder {
             &self.output,
             "internal error: the header layout does not settle",
         ))
+    }
+}
+
+/// Lengthens `v` to `len` with zeros written on every core: a run of gigabytes would
+/// otherwise be zeroed (and its pages faulted in) by one thread.
+fn extend_zeroed<T: Copy + Default + Send + Sync>(v: &mut Vec<T>, len: usize) {
+    if len > v.len() {
+        let add = len - v.len();
+        v.par_extend(rayon::iter::repeat_n(T::default(), add));
     }
 }
 

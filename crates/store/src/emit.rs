@@ -301,8 +301,8 @@ impl<'a> Emitter<'a> {
         let rl = o.rl;
         let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
         streams.resize_with(rl.fields.len(), Vec::new);
+        // Every byte is overwritten: reused buffers of the right size are not zeroed again.
         for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
-            buf.clear();
             buf.resize(n * bpp, 0);
         }
         let results = self.compute(p0, p1, source, &mut streams);
