@@ -1,6 +1,7 @@
 //! LAZ and COPC (LAZ 1.4 with variable-size chunks): the chunk table is read and checked when
 //! the file opens; reading then decompresses a group of chunks at a time, in parallel on
-//! rayon's pool through the `laz` crate, and hands the records out batch by batch.
+//! rayon's pool through the `laz` crate, and hands the records out batch by batch. As parts
+//! (see [`PartedSource`]), each chunk is read and decompressed on its own, from any thread.
 //!
 //! Everything the `laz` crate would trust blindly is checked first: the LASzip items against
 //! the point format, every chunk's range inside the file, point counts against the header, and
@@ -11,11 +12,11 @@
 
 use super::header::LasHeader;
 use super::record::{Decoder, PointFormat};
-use super::{batch_points, decoder};
+use super::{batch_points, decoder, read_exact_at};
 use crate::{IoError, PointReader};
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::{LazItem, LazItemType, LazVlr};
-use pointlet_core::{PointBatch, SourceMeta};
+use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
 use rayon::prelude::*;
 use std::cell::Cell;
 use std::fs::File;
@@ -40,14 +41,24 @@ struct Chunk {
     points: u64,
 }
 
+/// What decompressing any one chunk needs besides its bytes.
+struct ChunkCodec {
+    vlr: LazVlr,
+    layered: bool,
+    record_len: u64,
+    /// Points the header claims, for error messages.
+    total: u64,
+}
+
 pub(super) struct LazReader {
     path: PathBuf,
     meta: SourceMeta,
     file: File,
-    vlr: LazVlr,
-    layered: bool,
+    codec: ChunkCodec,
     decoder: Decoder,
     chunks: Vec<Chunk>,
+    /// Points of each chunk, the parts.
+    part_sizes: Vec<u64>,
     next_chunk: usize,
     compressed: Vec<u8>,
     decompressed: Vec<u8>,
@@ -82,9 +93,14 @@ impl LazReader {
             path: path.to_path_buf(),
             meta,
             file,
-            layered: format.extended,
+            codec: ChunkCodec {
+                vlr,
+                layered: format.extended,
+                record_len: u64::from(h.point_record_length),
+                total: h.point_count,
+            },
             decoder: decoder(path, &h)?,
-            vlr,
+            part_sizes: chunks.iter().map(|c| c.points).collect(),
             chunks,
             next_chunk: 0,
             compressed: Vec::new(),
@@ -120,9 +136,7 @@ impl LazReader {
         let range = head.offset..tail.offset + tail.bytes;
         self.compressed
             .resize((range.end - range.start) as usize, 0);
-        self.file
-            .seek(SeekFrom::Start(range.start))
-            .and_then(|_| self.file.read_exact(&mut self.compressed))
+        read_exact_at(&self.file, &mut self.compressed, range.start)
             .map_err(|e| IoError::io(&self.path, e))?;
         self.decompressed.clear();
         self.decompressed.resize((points * len) as usize, 0);
@@ -146,22 +160,18 @@ impl LazReader {
             (src, dst) = (rest_in, rest_out);
             jobs.push((first + k, *c, cin, cout));
         }
-        let (vlr, layered) = (&self.vlr, self.layered);
+        let (codec, path) = (&self.codec, &self.path);
         let failed = jobs
             .into_par_iter()
             .map(|(index, c, cin, cout)| {
-                decompress_chunk(cin, cout, vlr, c, len, layered).map_err(|m| (index, m))
+                codec
+                    .decompress(path, index, c, cin, cout)
+                    .map_err(|e| (index, e))
             })
             .filter_map(Result::err)
             .min_by_key(|(index, _)| *index);
-        if let Some((index, m)) = failed {
-            return Err(IoError::invalid(
-                &self.path,
-                format!(
-                    "LAZ chunk {index} cannot be decompressed ({m}): the file is damaged or holds fewer points than its header claims ({})",
-                    self.total
-                ),
-            ));
+        if let Some((_, e)) = failed {
+            return Err(e);
         }
         self.consumed = 0;
         self.next_chunk = end;
@@ -211,26 +221,96 @@ impl PointReader for LazReader {
         self.read += n as u64;
         Ok(Some(batch))
     }
+
+    fn parted(&self) -> Option<&dyn PartedSource> {
+        Some(self)
+    }
 }
 
-/// Decompresses one chunk into `out` (exactly its points' records), after checking what the
-/// `laz` crate would trust; a panic of the crate on damaged data becomes an error.
-fn decompress_chunk(
-    compressed: &[u8],
-    out: &mut [u8],
-    vlr: &LazVlr,
-    c: Chunk,
-    record_len: u64,
-    layered: bool,
-) -> Result<(), String> {
-    if layered {
-        check_layered_chunk(compressed, vlr.items(), record_len, c.points)?;
+impl PartedSource for LazReader {
+    fn part_sizes(&self) -> &[u64] {
+        &self.part_sizes
     }
-    let entry = [ChunkTableEntry {
-        point_count: c.points,
-        byte_count: c.bytes,
-    }];
-    guarded(|| laz::par_decompress(compressed, out, vlr, &entry))?.map_err(|e| e.to_string())
+
+    fn decode_part(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        scratch: &mut Vec<u8>,
+    ) -> Result<(), PartError> {
+        let Some(&c) = self.chunks.get(i) else {
+            return Err(Box::new(IoError::invalid(
+                &self.path,
+                format!(
+                    "there is no LAZ chunk {i}: the file has {}",
+                    self.chunks.len()
+                ),
+            )));
+        };
+        // Both sizes were bounded when the chunk table was checked at open.
+        let (in_len, out_len) = (
+            c.bytes as usize,
+            (c.points * self.codec.record_len) as usize,
+        );
+        scratch.resize(in_len + out_len, 0);
+        let (compressed, records) = scratch.split_at_mut(in_len);
+        read_exact_at(&self.file, compressed, c.offset).map_err(|e| {
+            let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                "the file ends inside it".to_string()
+            } else {
+                e.to_string()
+            };
+            IoError::invalid(
+                &self.path,
+                format!(
+                    "LAZ chunk {i} ({} bytes at byte {}) cannot be read: {why}",
+                    c.bytes, c.offset
+                ),
+            )
+        })?;
+        self.codec
+            .decompress(&self.path, i, c, compressed, records)?;
+        out.clear(self.decoder.layout());
+        self.decoder.decode(records, out);
+        Ok(())
+    }
+}
+
+impl ChunkCodec {
+    /// Decompresses chunk `index` (`c`, whose bytes are `compressed`) into `out`, exactly its
+    /// records, after checking what the `laz` crate would trust; a panic of the crate on
+    /// damaged data becomes an error naming the file, the chunk and its offset.
+    fn decompress(
+        &self,
+        path: &Path,
+        index: usize,
+        c: Chunk,
+        compressed: &[u8],
+        out: &mut [u8],
+    ) -> Result<(), IoError> {
+        let entry = [ChunkTableEntry {
+            point_count: c.points,
+            byte_count: c.bytes,
+        }];
+        let decompressed = if self.layered {
+            check_layered_chunk(compressed, self.vlr.items(), self.record_len, c.points)
+        } else {
+            Ok(())
+        }
+        .and_then(|()| {
+            guarded(|| laz::par_decompress(compressed, out, &self.vlr, &entry))?
+                .map_err(|e| e.to_string())
+        });
+        decompressed.map_err(|m| {
+            IoError::invalid(
+                path,
+                format!(
+                    "LAZ chunk {index} (at byte {}) cannot be decompressed ({m}): the file is damaged or holds fewer points than its header claims ({})",
+                    c.offset, self.total
+                ),
+            )
+        })
+    }
 }
 
 thread_local! {
