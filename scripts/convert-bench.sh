@@ -55,8 +55,8 @@ for input in "$las" "$laz"; do
 done
 n=$("$bin" info "$las" | awk '$1 == "points" { print $2 }')
 las_bytes=$(stat -c %s "$las")
-# In memory: room for every point (~50 B each in the builder, under 2× the LAS record) and more.
-mem_budget=$((2 * las_bytes + (256 << 20)))
+# In memory: room for every point (~70 B each in the builder, about 2× the LAS record) and more.
+mem_budget=$((3 * las_bytes + (1 << 30)))
 echo "$n points; LAS $las_bytes bytes, LAZ $(stat -c %s "$laz") bytes; in-memory budget $mem_budget bytes"
 
 warm() { # FILE: read it so that every run reads from the page cache alike
