@@ -112,14 +112,18 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     let secs = started.elapsed().as_secs_f64();
     eprintln!(
-        "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({})",
+        "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({}; reading {:.2} s, sorting \
+         {:.2} s, writing {:.2} s)",
         args.output.display(),
         summary.points,
         summary.pointlets,
         if summary.pointlets == 1 { "" } else { "s" },
         summary.pointlet_size,
         secs,
-        crate::progress::points_per_second(summary.points as f64 / secs.max(1e-9))
+        crate::progress::points_per_second(summary.points as f64 / secs.max(1e-9)),
+        summary.timings.reading.as_secs_f64(),
+        summary.timings.sorting.as_secs_f64(),
+        summary.timings.writing.as_secs_f64(),
     );
     Ok(())
 }

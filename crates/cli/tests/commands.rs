@@ -399,12 +399,16 @@ fn rates_and_info_numbers_read_as_people_write_them() {
     let dir = tempfile::tempdir().expect("tempdir");
     let store = dir.path().join("s.pointlet");
     let err = ok_stderr(&["convert", s(&data("simple.las")), "-o", s(&store)]);
-    // "(25.4 k points/s)": three significant digits and a unit.
+    // "(25.4 k points/s; reading …)": three significant digits and a unit, then stage times.
     let rate = err
         .rsplit('(')
         .next()
-        .and_then(|r| r.strip_suffix(" points/s)\n"))
+        .and_then(|r| r.split_once(" points/s; reading "))
+        .map(|(rate, _)| rate)
         .unwrap_or_else(|| panic!("no rate: {err}"));
+    for stage in ["reading", "sorting", "writing"] {
+        assert!(err.contains(&format!("{stage} ")), "no {stage} time: {err}");
+    }
     let number = rate.split(' ').next().expect("number");
     let digits = number.chars().filter(|c| c.is_ascii_digit()).count();
     assert!(

@@ -87,6 +87,19 @@ pub struct BuildSummary {
     /// Bytes of the store file.
     pub bytes: u64,
     pub bounds: Aabb,
+    /// Wall time of each stage.
+    pub timings: BuildTimings,
+}
+
+/// Wall time of each stage of a build.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BuildTimings {
+    /// From `create` to `finish`: taking the points (decoding parted sources), spilling runs.
+    pub reading: std::time::Duration,
+    /// Sorting what is in memory, or the last spill and re-keying, up to the first write.
+    pub sorting: std::time::Duration,
+    /// Merging (out of core), shuffling and writing the store.
+    pub writing: std::time::Duration,
 }
 
 /// A keying task's result: raw bounds of its points, or the first bad point and why.
@@ -140,20 +153,21 @@ pub struct StoreBuilder {
     rl: RecordLayout,
     run: Run,
     run_capacity: usize,
-    /// Whether two runs fit the budget, so one can fill while the other spills.
+    /// Whether runs spill in the background ([`runs::SPILLERS`] at once) while one fills.
     overlap: bool,
     io_chunk: usize,
     spiller: Option<Spiller>,
     runs: Vec<RunFile>,
     pushed: u64,
+    started: std::time::Instant,
     raw_min: [i32; 3],
     raw_max: [i32; 3],
     failed: bool,
 }
 
 /// Sizes derived from the budget: the I/O chunk, the points a run may hold, and whether runs
-/// spill in the background (two half-budget runs) or not (one run of the whole budget, when
-/// the source claims few enough points to fit it).
+/// spill in the background (the budget shared by the filling run and those spilling) or not
+/// (one run of the whole budget, when the source claims few enough points to fit it).
 fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool) {
     let io_chunk = (budget / 32).clamp(256 << 10, 16 << 20) as usize;
     // A run holds its records and (key, index) pairs, and the radix pass scatters the pairs
@@ -165,7 +179,7 @@ fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool
     if claimed <= whole {
         (io_chunk, clamp(whole), false)
     } else {
-        (io_chunk, clamp(whole / 2), true)
+        (io_chunk, clamp(whole / (runs::SPILLERS as u64 + 1)), true)
     }
 }
 
@@ -277,6 +291,7 @@ impl StoreBuilder {
             spiller: None,
             runs: Vec::new(),
             pushed: 0,
+            started: std::time::Instant::now(),
             raw_min: [i32::MAX; 3],
             raw_max: [i32::MIN; 3],
             failed: false,
@@ -471,6 +486,7 @@ impl StoreBuilder {
         if v.capacity() < need {
             let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
             v.reserve_exact(target - v.len());
+            crate::mem::prefer_huge_pages(v);
         }
     }
 
@@ -528,13 +544,17 @@ impl StoreBuilder {
         }
         let (rb, chunk) = (self.rl.len, self.io_chunk);
         let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
-        // At most one run is in flight: the one before this must be on disk now.
-        let reuse = match spiller.wait(&self.output)? {
-            Some((file, emptied)) => {
-                self.runs.push(file);
-                emptied
+        // At most SPILLERS runs are in flight: when all are, the oldest must be on disk now.
+        let reuse = if spiller.in_flight() < runs::SPILLERS {
+            Run::default()
+        } else {
+            match spiller.wait(&self.output)? {
+                Some((file, emptied)) => {
+                    self.runs.push(file);
+                    emptied
+                }
+                None => Run::default(),
             }
-            None => Run::default(),
         };
         let full = std::mem::replace(&mut self.run, reuse);
         spiller.start(runs::temp_name(&self.run_dir, &self.stem, "run"), full)?;
@@ -560,6 +580,11 @@ impl StoreBuilder {
     /// Sorts what is left, writes the store and moves it into place.
     pub fn finish(mut self) -> Result<BuildSummary, StoreError> {
         self.usable()?;
+        let sorting_from = std::time::Instant::now();
+        let mut timings = BuildTimings {
+            reading: sorting_from - self.started,
+            ..Default::default()
+        };
         let n = self.pushed;
         if n == 0 {
             return Err(StoreError::build(
@@ -623,8 +648,7 @@ impl StoreBuilder {
             let p = output.clone();
             move |e| StoreError::io(&p, what, e)
         };
-        file.set_len(plan.file_len)
-            .map_err(io("sizing the output"))?;
+        pio::allocate(&file, plan.file_len).map_err(io("reserving disk space for the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
         let out = EmitPlan {
             file: &file,
@@ -638,7 +662,9 @@ impl StoreBuilder {
         };
         let rb = self.rl.len;
         let progress = self.progress.clone();
+        let mut writing_from = std::time::Instant::now();
         let ((), table_crc, checksums_crc) = if spilled {
+            timings.sorting = writing_from - sorting_from;
             let runs = std::mem::take(&mut self.runs);
             let merge_budget = (self.ram_budget / 2) as usize;
             let runs =
@@ -654,6 +680,8 @@ impl StoreBuilder {
             let mut scratch = Vec::new();
             let buckets = sort::partition(pairs, &mut scratch);
             drop(scratch);
+            writing_from = std::time::Instant::now();
+            timings.sorting = writing_from - sorting_from;
             // Buckets are sorted just before the block that needs them, so writing the first
             // blocks overlaps sorting the rest.
             Emitter::run(&out, |em| {
@@ -705,6 +733,10 @@ impl StoreBuilder {
             runs: runs_spilled,
             bytes: plan.file_len,
             bounds,
+            timings: BuildTimings {
+                writing: writing_from.elapsed(),
+                ..timings
+            },
         })
     }
 

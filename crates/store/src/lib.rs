@@ -12,13 +12,16 @@ mod builder;
 mod emit;
 mod error;
 pub mod format;
+mod mem;
 mod meta;
 mod pio;
 mod reader;
 mod runs;
 mod sort;
 
-pub use builder::{BuildConfig, BuildPhase, BuildProgress, BuildSummary, StoreBuilder};
+pub use builder::{
+    BuildConfig, BuildPhase, BuildProgress, BuildSummary, BuildTimings, StoreBuilder,
+};
 pub use error::StoreError;
 pub use format::{PointletEntry, StoreHeader, StreamInfo, StreamKind};
 pub use meta::merge_meta;

@@ -142,38 +142,49 @@ pub(crate) struct Run {
 
 type SpillResult = Result<(RunFile, Run), StoreError>;
 
-/// Sorts and writes full runs on a thread of its own while the next run fills; hands the
-/// emptied buffers back for reuse. Runs are spilled in the order they are started.
+/// Runs sorted and written at once: each writes its own file, and the kernel writes separate
+/// files in parallel where it serializes writes to one file.
+pub(crate) const SPILLERS: usize = 3;
+
+/// A run to spill, and where to send the result.
+type SpillJob = (PathBuf, Run, SyncSender<SpillResult>);
+
+/// Sorts and writes full runs on threads of their own while the next run fills; hands the
+/// emptied buffers back for reuse. Results are taken in the order the runs were started.
 pub(crate) struct Spiller {
-    jobs: Option<SyncSender<(PathBuf, Run)>>,
-    done: Receiver<SpillResult>,
-    worker: Option<JoinHandle<()>>,
-    in_flight: usize,
+    jobs: Option<SyncSender<SpillJob>>,
+    pending: std::collections::VecDeque<Receiver<SpillResult>>,
+    workers: Vec<JoinHandle<()>>,
 }
 
 impl Spiller {
     pub fn new(rb: usize, chunk_bytes: usize) -> Spiller {
-        let (jobs, todo) = sync_channel::<(PathBuf, Run)>(1);
-        let (finished, done) = sync_channel::<SpillResult>(2);
-        let worker = std::thread::spawn(move || {
-            for (path, mut run) in todo {
-                crate::sort::sort_pairs(&mut run.pairs);
-                let result = write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
-                    run.records.clear();
-                    run.pairs.clear();
-                    (f, run)
-                });
-                // A dropped receiver means the build was abandoned; the run file goes with it.
-                if finished.send(result).is_err() {
-                    return;
-                }
-            }
-        });
+        let (jobs, todo) = sync_channel::<SpillJob>(SPILLERS);
+        let todo = std::sync::Arc::new(std::sync::Mutex::new(todo));
+        let workers = (0..SPILLERS)
+            .map(|_| {
+                let todo = todo.clone();
+                std::thread::spawn(move || loop {
+                    let job = todo.lock().map(|queue| queue.recv());
+                    let Ok(Ok((path, mut run, reply))) = job else {
+                        return;
+                    };
+                    crate::sort::sort_pairs(&mut run.pairs);
+                    let result =
+                        write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
+                            run.records.clear();
+                            run.pairs.clear();
+                            (f, run)
+                        });
+                    // A dropped receiver means the build was abandoned; the run file goes too.
+                    let _ = reply.send(result);
+                })
+            })
+            .collect();
         Spiller {
             jobs: Some(jobs),
-            done,
-            worker: Some(worker),
-            in_flight: 0,
+            pending: Default::default(),
+            workers,
         }
     }
 
@@ -181,32 +192,36 @@ impl Spiller {
         StoreError::build(path, "the run spilling thread stopped")
     }
 
+    pub fn in_flight(&self) -> usize {
+        self.pending.len()
+    }
+
     /// Queues a full run to be written to `path`.
     pub fn start(&mut self, path: PathBuf, run: Run) -> Result<(), StoreError> {
         let jobs = self.jobs.as_ref().ok_or_else(|| Self::stopped(&path))?;
-        jobs.send((path.clone(), run))
+        let (reply, result) = sync_channel(1);
+        jobs.send((path.clone(), run, reply))
             .map_err(|_| Self::stopped(&path))?;
-        self.in_flight += 1;
+        self.pending.push_back(result);
         Ok(())
     }
 
     /// Waits for the oldest run in flight; `None` when none is.
     pub fn wait(&mut self, output: &Path) -> Result<Option<(RunFile, Run)>, StoreError> {
-        if self.in_flight == 0 {
+        let Some(result) = self.pending.pop_front() else {
             return Ok(None);
-        }
-        self.in_flight -= 1;
-        let r = self.done.recv().map_err(|_| Self::stopped(output))?;
+        };
+        let r = result.recv().map_err(|_| Self::stopped(output))?;
         r.map(Some)
     }
 }
 
 impl Drop for Spiller {
     fn drop(&mut self) {
-        // Closing the queue ends the worker after its current run; joining it first means no
-        // run file can appear after the builder cleaned up.
+        // Closing the queue ends the workers after their current run; joining them first
+        // means no run file can appear after the builder cleaned up.
         self.jobs = None;
-        if let Some(w) = self.worker.take() {
+        for w in self.workers.drain(..) {
             let _ = w.join();
         }
     }
