@@ -377,17 +377,7 @@ impl StoreBuilder {
     ) -> Result<(), StoreError> {
         let rb = self.rl.len;
         let n0 = self.run.pairs.len();
-        let expected = n0.saturating_add(self.claimed.saturating_sub(self.pushed) as usize);
-        let cap = self.run_capacity;
-        Self::grow(&mut self.run.pairs, n0 + total, expected, cap);
-        Self::grow(
-            &mut self.run.records,
-            (n0 + total) * rb,
-            expected.saturating_mul(rb),
-            cap * rb,
-        );
-        extend_zeroed(&mut self.run.pairs, n0 + total);
-        extend_zeroed(&mut self.run.records, (n0 + total) * rb);
+        self.make_room(total);
         // Each part's slices of the run, and its first run index.
         let sizes = &source.part_sizes()[range.clone()];
         let mut jobs = Vec::with_capacity(sizes.len());
@@ -480,13 +470,34 @@ impl StoreBuilder {
         Ok(())
     }
 
+    /// Lengthens the run by `add` zeroed points. A fresh run's records come zeroed from the
+    /// allocator for every point the source still claims (fresh pages, no pass over memory);
+    /// a run in use grows by doubling and is zero-filled on every core.
+    fn make_room(&mut self, add: usize) {
+        let (rb, n0, cap) = (self.rl.len, self.run.pairs.len(), self.run_capacity);
+        let expected = n0.saturating_add(self.claimed.saturating_sub(self.pushed) as usize);
+        if self.run.records.capacity() == 0 {
+            let target = add.max(expected.min(cap));
+            self.run.records = vec![0; target * rb];
+            self.run.records.truncate(add * rb);
+        }
+        Self::grow(&mut self.run.pairs, n0 + add, expected, cap);
+        Self::grow(
+            &mut self.run.records,
+            (n0 + add) * rb,
+            expected.saturating_mul(rb),
+            cap * rb,
+        );
+        extend_zeroed(&mut self.run.pairs, n0 + add);
+        extend_zeroed(&mut self.run.records, (n0 + add) * rb);
+    }
+
     /// Grows a run column to hold `need` items: at once to `expected` (what the source still
     /// claims), then by doubling, never past `cap` (the run's capacity).
     fn grow<T>(v: &mut Vec<T>, need: usize, expected: usize, cap: usize) {
         if v.capacity() < need {
             let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
             v.reserve_exact(target - v.len());
-            crate::mem::prefer_huge_pages(v);
         }
     }
 
@@ -494,17 +505,7 @@ impl StoreBuilder {
     fn append(&mut self, batch: &PointBatch, start: usize, n: usize) -> Result<(), StoreError> {
         let rb = self.rl.len;
         let n0 = self.run.pairs.len();
-        let expected = n0.saturating_add(self.claimed.saturating_sub(self.pushed) as usize);
-        let cap = self.run_capacity;
-        Self::grow(&mut self.run.pairs, n0 + n, expected, cap);
-        Self::grow(
-            &mut self.run.records,
-            (n0 + n) * rb,
-            expected.saturating_mul(rb),
-            cap * rb,
-        );
-        extend_zeroed(&mut self.run.pairs, n0 + n);
-        extend_zeroed(&mut self.run.records, (n0 + n) * rb);
+        self.make_room(n);
         let (q, grid, rl) = (self.quantization, self.grid, &self.rl);
         let results: Vec<KeyChunk> = self.run.records[n0 * rb..]
             .par_chunks_mut(KEY_TASK * rb)
@@ -671,9 +672,13 @@ impl StoreBuilder {
                 runs::reduce_runs(runs, rb, merge_budget, &self.run_dir, &self.stem, |d, t| {
                     report(&progress, BuildPhase::Merging, d, t);
                 })?;
-            Emitter::run(&out, |em| {
+            let merged = Emitter::run(&out, |em| {
                 merge_parallel(em, &runs, merge_budget, &progress)
-            })?
+            });
+            // Removing a run frees its page cache, dirty pages and all, one page at a time:
+            // gigabytes take seconds on one thread, so the runs go in parallel.
+            runs.into_par_iter().for_each(drop);
+            merged?
         } else {
             let block_pointlets = (self.io_chunk as u64 / (k * rb as u64)).max(1);
             let (records, pairs) = (&self.run.records, &mut self.run.pairs);
@@ -725,7 +730,6 @@ impl StoreBuilder {
             )
         })?;
         self.temp.keep = true;
-        sync_dir(&self.output);
         Ok(BuildSummary {
             points: n,
             pointlets,
@@ -1052,21 +1056,4 @@ fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
         }
         *key = grid.hilbert(q.dequantize(raw));
     });
-}
-
-/// Makes the rename durable where the platform allows; failure here loses nothing already
-/// written, so it is not an error.
-fn sync_dir(output: &Path) {
-    #[cfg(unix)]
-    {
-        let dir = match output.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        if let Ok(d) = File::open(dir) {
-            let _ = d.sync_all();
-        }
-    }
-    #[cfg(not(unix))]
-    let _ = output;
 }

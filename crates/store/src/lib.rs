@@ -12,7 +12,6 @@ mod builder;
 mod emit;
 mod error;
 pub mod format;
-mod mem;
 mod meta;
 mod pio;
 mod reader;

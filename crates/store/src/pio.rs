@@ -70,7 +70,10 @@ pub fn allocate(file: &File, len: u64) -> io::Result<()> {
                 return Ok(());
             }
             let e = io::Error::last_os_error();
-            if !matches!(e.raw_os_error(), Some(libc::EOPNOTSUPP) | Some(libc::ENOSYS)) {
+            if !matches!(
+                e.raw_os_error(),
+                Some(libc::EOPNOTSUPP) | Some(libc::ENOSYS)
+            ) {
                 return Err(e);
             }
         }

@@ -75,7 +75,6 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     starts.push(at);
     scratch.clear();
     scratch.reserve_exact(n);
-    crate::mem::prefer_huge_pages(scratch);
     let out = SharedOut(scratch.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
     pairs
         .par_chunks(chunk)
