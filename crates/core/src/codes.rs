@@ -144,10 +144,11 @@ pub fn hilbert3_reference(p: [u32; 3], bits: u32) -> u64 {
     h
 }
 
-/// One state's table for two levels: index = 6 Morton bits, value = (6 Hilbert bits, next state).
+/// Per state, a table for three levels: index = 9 Morton bits, value = 9 Hilbert bits << 5 |
+/// next state (the curve has 12 states, so 5 bits hold one; the tests against the reference
+/// would fail otherwise). 1 KiB per state: all of them stay in the L1 cache.
 struct HilbertTables {
-    two_level: Vec<[(u8, u8); 64]>,
-    one_level: Vec<[(u8, u8); 8]>,
+    three_level: Vec<[u16; 512]>,
 }
 
 fn tables() -> &'static HilbertTables {
@@ -204,37 +205,35 @@ fn build_tables() -> HilbertTables {
         one_level.push(row);
         i += 1;
     }
-    let two_level = one_level
+    let three_level = one_level
         .iter()
         .map(|row| {
-            let mut t = [(0u8, 0u8); 64];
-            for m in 0..64u8 {
-                let (d1, s1) = row[(m >> 3) as usize];
-                let (d2, s2) = one_level[s1 as usize][(m & 7) as usize];
-                t[m as usize] = (d1 << 3 | d2, s2);
+            let mut t = [0u16; 512];
+            for (m, out) in t.iter_mut().enumerate() {
+                let (d1, s1) = row[m >> 6];
+                let (d2, s2) = one_level[s1 as usize][(m >> 3) & 7];
+                let (d3, s3) = one_level[s2 as usize][m & 7];
+                let digits = u16::from(d1) << 6 | u16::from(d2) << 3 | u16::from(d3);
+                *out = digits << 5 | u16::from(s3);
             }
             t
         })
         .collect();
-    HilbertTables {
-        two_level,
-        one_level,
-    }
+    HilbertTables { three_level }
 }
 
-/// Hilbert index of a 63-bit Morton code (21 levels).
+/// Hilbert index of a 63-bit Morton code (21 levels), three levels per table lookup.
 #[inline]
 pub fn hilbert_from_morton(morton: u64) -> u64 {
     let t = tables();
-    // Top level alone (bits 62..60), then ten steps of two levels.
-    let (d, mut state) = t.one_level[0][((morton >> 60) & 7) as usize];
-    let mut h = d as u64;
-    let mut shift = 60;
+    let mut state = 0usize;
+    let mut h = 0u64;
+    let mut shift = 63;
     while shift > 0 {
-        shift -= 6;
-        let (d, s) = t.two_level[state as usize][((morton >> shift) & 63) as usize];
-        h = h << 6 | d as u64;
-        state = s;
+        shift -= 9;
+        let e = t.three_level[state][((morton >> shift) & 511) as usize];
+        h = h << 9 | u64::from(e >> 5);
+        state = usize::from(e & 31);
     }
     h
 }

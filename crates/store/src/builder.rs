@@ -470,7 +470,7 @@ impl StoreBuilder {
         Ok(())
     }
 
-    /// Lengthens the run by `add` zeroed points. A fresh run's records come zeroed from the
+    /// Lengthens the run by `add` zeroed points. A fresh run's columns come zeroed from the
     /// allocator for every point the source still claims (fresh pages, no pass over memory);
     /// a run in use grows by doubling and is zero-filled on every core.
     fn make_room(&mut self, add: usize) {
@@ -480,6 +480,8 @@ impl StoreBuilder {
             let target = add.max(expected.min(cap));
             self.run.records = vec![0; target * rb];
             self.run.records.truncate(add * rb);
+            self.run.pairs = vec![(0, 0); target];
+            self.run.pairs.truncate(add);
         }
         Self::grow(&mut self.run.pairs, n0 + add, expected, cap);
         Self::grow(
