@@ -63,8 +63,9 @@ pub fn open_inputs(
     Ok(readers)
 }
 
-/// Points per batch handed from the decoder thread to the builder.
-pub const BATCH: usize = 1 << 20;
+/// Points per batch handed from the decoder thread to the builder: enough for every core, few
+/// enough that the batches in flight (~15 MB each) stay a small constant beside the budget.
+pub const BATCH: usize = 1 << 18;
 
 pub fn run(args: Args) -> Result<()> {
     if !crate::load::is_store_path(&args.output) {
