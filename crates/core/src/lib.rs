@@ -13,6 +13,7 @@ pub mod partition;
 pub mod parts;
 pub mod path;
 pub mod points;
+pub mod progressive;
 pub mod shuffle;
 pub mod size;
 

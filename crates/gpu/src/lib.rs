@@ -13,6 +13,7 @@ pub mod reference;
 mod renderer;
 mod screen;
 mod shaders;
+pub mod shuffle;
 mod storage;
 mod target;
 mod upload;

@@ -25,6 +25,7 @@ pub const COPY: &str = include_str!("../shaders/copy.wgsl");
 pub const LOD: &str = include_str!("../shaders/lod.wgsl");
 pub const UPLOAD: &str = include_str!("../shaders/upload.wgsl");
 pub const TABLES: &str = include_str!("../shaders/tables.wgsl");
+pub const SHUFFLE: &str = include_str!("../shaders/shuffle.wgsl");
 
 /// A point pass: header + fetch for `encoding` + body.
 pub fn point_pass(encoding: PointEncoding, body: &str) -> String {

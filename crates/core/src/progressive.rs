@@ -1,0 +1,266 @@
+//! The incremental shuffle of the progressive-rendering paper (Schütz et al., "Progressive
+//! Real-Time Rendering of One Billion Points Without Hierarchical Acceleration Structures",
+//! §3.3, eq. 1–2): point i of a buffer of n slots goes to slot `target(i)`, computed from i
+//! alone, so batches can be scattered in parallel as they arrive and any prefix of the buffer
+//! is a spread-out subsample of the points.
+
+use thiserror::Error;
+
+/// Largest buffer the permutation accepts: indices stay below 2^32, so every slot index fits a
+/// GPU `u32` and i² fits a `u64`.
+pub const MAX_SLOTS: u64 = 1 << 32;
+
+#[derive(Debug, Error, PartialEq, Eq)]
+pub enum ShuffleError {
+    #[error("a shuffled buffer of {n} slots exceeds the limit of {MAX_SLOTS} (2^32) slots")]
+    TooManySlots { n: u64 },
+}
+
+/// The permutation of a buffer of `n` slots: slots `0..P` are permuted by applying eq. 1
+/// twice (eq. 2), slots `P..n` stay in place, where P is the largest prime ≡ 3 (mod 4) ≤ n.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShufflePermutation {
+    n: u64,
+    prime: u64,
+}
+
+impl ShufflePermutation {
+    pub fn new(n: u64) -> Result<Self, ShuffleError> {
+        if n > MAX_SLOTS {
+            return Err(ShuffleError::TooManySlots { n });
+        }
+        Ok(Self {
+            n,
+            prime: prime_3_mod_4_at_most(n).unwrap_or(0),
+        })
+    }
+
+    /// Slots of the buffer.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// P: slots below it are shuffled; 0 when n < 3 (no such prime: the identity).
+    pub fn prime(&self) -> u64 {
+        self.prime
+    }
+
+    /// Eq. 1: quadratic residues for the lower half, their negatives (the non-residues, since
+    /// −1 is a non-residue when P ≡ 3 mod 4) for the upper half; a bijection of `0..P`.
+    pub fn permute(&self, i: u64) -> u64 {
+        let p = self.prime;
+        if i >= p {
+            return i;
+        }
+        // i < P < 2^32, so i² < 2^64.
+        let square = (i * i) % p;
+        if i <= p / 2 {
+            square
+        } else {
+            p - square
+        }
+    }
+
+    /// Eq. 2: the slot point `i` goes to; one pass of eq. 1 leaves visible runs (paper Fig. 4).
+    pub fn target(&self, i: u64) -> u64 {
+        self.permute(self.permute(i))
+    }
+}
+
+/// The largest prime P ≡ 3 (mod 4) with P ≤ n, searching downward; `None` below 3.
+pub fn prime_3_mod_4_at_most(n: u64) -> Option<u64> {
+    if n < 3 {
+        return None;
+    }
+    // The largest candidate ≡ 3 (mod 4) not above n; candidates then step by 4.
+    let mut c = n - (n % 4 + 1) % 4;
+    loop {
+        if is_prime(c) {
+            return Some(c);
+        }
+        // 3 is prime, so the loop stops before c could drop below it.
+        c -= 4;
+    }
+}
+
+/// Deterministic for every u64: Miller–Rabin with the first twelve primes as bases is exact
+/// below 3.3·10^24.
+pub fn is_prime(n: u64) -> bool {
+    const BASES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
+    if n < 2 {
+        return false;
+    }
+    for p in BASES {
+        if n.is_multiple_of(p) {
+            return n == p;
+        }
+    }
+    let (mut d, mut s) = (n - 1, 0);
+    while d.is_multiple_of(2) {
+        d /= 2;
+        s += 1;
+    }
+    'bases: for a in BASES {
+        let mut x = pow_mod(a, d, n);
+        if x == 1 || x == n - 1 {
+            continue;
+        }
+        for _ in 1..s {
+            x = mul_mod(x, x, n);
+            if x == n - 1 {
+                continue 'bases;
+            }
+        }
+        return false;
+    }
+    true
+}
+
+fn mul_mod(a: u64, b: u64, m: u64) -> u64 {
+    ((a as u128 * b as u128) % m as u128) as u64
+}
+
+fn pow_mod(mut base: u64, mut exp: u64, m: u64) -> u64 {
+    let mut result = 1;
+    base %= m;
+    while exp > 0 {
+        if exp & 1 == 1 {
+            result = mul_mod(result, base, m);
+        }
+        base = mul_mod(base, base, m);
+        exp >>= 1;
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Slot → point of a buffer filled by `target`, checking along the way that no slot is
+    /// hit twice or lies outside the buffer.
+    fn placement(perm: &ShufflePermutation) -> Vec<u32> {
+        let n = perm.len() as usize;
+        let mut slots = vec![u32::MAX; n];
+        for i in 0..n {
+            let t = perm.target(i as u64);
+            assert!(t < n as u64, "n {n}: point {i} goes to slot {t}");
+            assert_eq!(slots[t as usize], u32::MAX, "n {n}: slot {t} hit twice");
+            slots[t as usize] = i as u32;
+        }
+        slots
+    }
+
+    #[test]
+    fn every_buffer_up_to_20000_slots_is_a_bijection() {
+        for n in 0..=20_000u64 {
+            placement(&ShufflePermutation::new(n).unwrap());
+        }
+    }
+
+    #[test]
+    fn large_buffers_are_bijections() {
+        for n in [1_000_007, 1 << 24, 3_000_000] {
+            let perm = ShufflePermutation::new(n).unwrap();
+            placement(&perm);
+        }
+    }
+
+    #[test]
+    fn the_prime_is_the_largest_3_mod_4_not_above_n() {
+        const LIMIT: usize = 100_000;
+        let mut composite = vec![false; LIMIT + 1];
+        let mut best = None;
+        for k in 2..=LIMIT {
+            if !composite[k] {
+                for m in (k * k..=LIMIT).step_by(k) {
+                    composite[m] = true;
+                }
+                if k % 4 == 3 {
+                    best = Some(k as u64);
+                }
+            }
+            assert_eq!(prime_3_mod_4_at_most(k as u64), best, "n {k}");
+            assert_eq!(is_prime(k as u64), !composite[k], "{k}");
+        }
+        assert_eq!(prime_3_mod_4_at_most(0), None);
+        assert_eq!(prime_3_mod_4_at_most(1), None);
+        assert_eq!(
+            prime_3_mod_4_at_most(u64::MAX),
+            Some(18_446_744_073_709_551_427)
+        );
+    }
+
+    #[test]
+    fn the_prime_near_the_limit_is_found_and_checked() {
+        let perm = ShufflePermutation::new(MAX_SLOTS).unwrap();
+        let p = perm.prime();
+        assert!(p < MAX_SLOTS && p % 4 == 3 && is_prime(p));
+        // 2^32 − 5 is the largest prime below 2^32 and is ≡ 3 (mod 4).
+        assert_eq!(p, (1 << 32) - 5);
+        assert!(((p + 1)..=MAX_SLOTS).all(|c| !is_prime(c) || c % 4 != 3));
+        // The squares near the top of the range must not overflow.
+        assert_eq!(perm.permute(p - 1), p - 1);
+        assert_eq!(
+            ShufflePermutation::new(MAX_SLOTS + 1),
+            Err(ShuffleError::TooManySlots { n: MAX_SLOTS + 1 })
+        );
+        // Known primes, and a strong pseudoprime to bases 2, 3, 5 and 7 (151·751·28351).
+        assert!(is_prime(4_294_967_291) && is_prime(2_147_483_647));
+        assert!(!is_prime(3_215_031_751));
+        assert!(!is_prime(4_294_967_297));
+    }
+
+    #[test]
+    fn the_first_slots_are_the_identity_below_three() {
+        for n in 0..3 {
+            let perm = ShufflePermutation::new(n).unwrap();
+            assert_eq!(perm.prime(), 0);
+            assert!((0..n).all(|i| perm.target(i) == i));
+        }
+    }
+
+    /// Chi-square statistic of a 16×16 histogram of the grid points in `slots` against uniform.
+    fn chi_square(slots: &[u32], side: u32) -> f64 {
+        let mut cells = [0u32; 256];
+        let cell = side / 16;
+        for &i in slots {
+            let (x, y) = (i % side, i / side);
+            cells[((y / cell) * 16 + x / cell) as usize] += 1;
+        }
+        let expected = slots.len() as f64 / 256.0;
+        cells
+            .iter()
+            .map(|&c| (c as f64 - expected).powi(2) / expected)
+            .sum()
+    }
+
+    /// Critical value of chi-square with 255 degrees of freedom (16 × 16 cells − 1) at
+    /// significance 0.001: the 0.999 quantile, 330.52, found by bisection on the regularized
+    /// incomplete gamma function P(255/2, x/2); Wilson–Hilferty's approximation
+    /// k·(1 − 2/(9k) + z·√(2/(9k)))³ with z = 3.0902 agrees (330.55).
+    const CHI2_255_AT_0_001: f64 = 330.52;
+
+    #[test]
+    fn prefixes_of_a_shuffled_sorted_grid_are_uniform() {
+        // A 1024 × 1024 grid scanned row by row: spatially sorted like a tiled scan.
+        let side = 1024u32;
+        let n = (side * side) as u64;
+        let shuffled = placement(&ShufflePermutation::new(n).unwrap());
+        let sorted: Vec<u32> = (0..n as u32).collect();
+        for percent in [1, 5, 25] {
+            let k = (n * percent / 100) as usize;
+            let chi = chi_square(&shuffled[..k], side);
+            assert!(chi < CHI2_255_AT_0_001, "{percent} % prefix: χ² = {chi}");
+            let control = chi_square(&sorted[..k], side);
+            assert!(
+                control > CHI2_255_AT_0_001,
+                "unshuffled {percent} % prefix: χ² = {control}"
+            );
+        }
+    }
+}

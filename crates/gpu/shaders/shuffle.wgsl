@@ -1,0 +1,93 @@
+// Scatters a batch of points from the staging ("Distribute") buffer to their shuffled slots,
+// one thread per point: element j, the point of global index first + j, goes to slot
+// target(first + j) of the bound destination chunk, if that slot lies in it (one dispatch per
+// chunk: a buffer larger than the binding limit is split like the point storage).
+// Follows the progressive-rendering paper (Schütz et al.), §3.1 (Distribute buffer into the
+// shuffled vertex buffer) and §3.3, eq. 1 (permute) and eq. 2 (target = permute ∘ permute),
+// with P the largest prime ≡ 3 (mod 4) not above the buffer's size (0: identity).
+// WGSL has only 32-bit integers, so i² mod P is computed by doubling-and-adding mod P.
+
+struct Shuffle {
+    // Slots of the whole shuffled buffer.
+    n: u32,
+    prime: u32,
+    // Global index of staging element 0, and the batch's size.
+    first: u32,
+    count: u32,
+    // Slots first_slot..first_slot + slots live in the bound destination buffers.
+    first_slot: u32,
+    slots: u32,
+    // Position words per point: 3 (full16) or 1 (compact8).
+    words: u32,
+    has_fine: u32,
+}
+
+@group(0) @binding(0) var<uniform> shuffle: Shuffle;
+@group(0) @binding(1) var<storage, read> src_positions: array<u32>;
+@group(0) @binding(2) var<storage, read> src_fine: array<u32>;
+@group(0) @binding(3) var<storage, read> src_colors: array<u32>;
+@group(0) @binding(4) var<storage, read_write> dst_positions: array<u32>;
+@group(0) @binding(5) var<storage, read_write> dst_fine: array<u32>;
+@group(0) @binding(6) var<storage, read_write> dst_colors: array<u32>;
+
+// (a + b) mod p for a, b < p: a wrapped sum is ≥ 2^32 > p, and subtracting p wraps it back.
+fn add_mod(a: u32, b: u32, p: u32) -> u32 {
+    let s = a + b;
+    if s < a || s >= p {
+        return s - p;
+    }
+    return s;
+}
+
+// (a · b) mod p for a, b < p < 2^32, exactly: Horner over the bits of b, doubling mod p.
+fn mul_mod(a: u32, b: u32, p: u32) -> u32 {
+    if b == 0u {
+        return 0u;
+    }
+    var r = 0u;
+    for (var bit = 31 - i32(countLeadingZeros(b)); bit >= 0; bit--) {
+        r = add_mod(r, r, p);
+        if ((b >> u32(bit)) & 1u) != 0u {
+            r = add_mod(r, a, p);
+        }
+    }
+    return r;
+}
+
+// Eq. 1: squares for the lower half, their negatives for the upper half; i ≥ p stays.
+fn permute(i: u32, p: u32) -> u32 {
+    if i >= p {
+        return i;
+    }
+    let square = mul_mod(i, i, p);
+    if i <= p / 2u {
+        return square;
+    }
+    return p - square;
+}
+
+// Eq. 2: one pass of eq. 1 leaves visible runs (paper Fig. 4), two do not.
+fn shuffle_target(i: u32, p: u32) -> u32 {
+    return permute(permute(i, p), p);
+}
+
+@compute @workgroup_size(256)
+fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
+           @builtin(num_workgroups) nwg: vec3<u32>) {
+    let j = gid.x + gid.y * nwg.x * 256u;
+    if j >= shuffle.count || shuffle.first + j >= shuffle.n {
+        return;
+    }
+    let t = shuffle_target(shuffle.first + j, shuffle.prime);
+    if t < shuffle.first_slot || t - shuffle.first_slot >= shuffle.slots {
+        return;
+    }
+    let d = t - shuffle.first_slot;
+    dst_colors[d] = src_colors[j];
+    for (var w = 0u; w < shuffle.words; w++) {
+        dst_positions[d * shuffle.words + w] = src_positions[j * shuffle.words + w];
+    }
+    if shuffle.has_fine != 0u {
+        dst_fine[d] = src_fine[j];
+    }
+}

@@ -1,0 +1,348 @@
+//! The shuffled point buffer of progressive rendering (progressive-rendering paper §3.1,
+//! §3.3): batches arrive in a staging ("Distribute") buffer in load order, and `ShufflePass`
+//! scatters each point to its slot under the prime-number permutation, so that any prefix of
+//! the buffer is a spread-out subsample of the points loaded so far. Points are stored like
+//! the point storage's: encoded position words, fine words (Compact8) and RGBA8 colours, in
+//! as many buffers as the binding limit requires.
+
+use crate::context::GpuContext;
+use crate::raster::{grid, storage_group};
+use crate::shaders;
+use crate::storage::PointEncoding;
+use crate::target::map_read;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use pointlet_core::progressive::ShufflePermutation;
+
+/// Points of a batch, encoded as the streams store them (see [`crate::encode_point`]):
+/// `positions` has 3 words per point for Full16 and 1 for Compact8, `fine` one word per point
+/// for Compact8 and none for Full16.
+#[derive(Clone, Copy, Debug)]
+pub struct EncodedBatch<'a> {
+    pub positions: &'a [u32],
+    pub fine: &'a [u32],
+    pub colors: &'a [u32],
+}
+
+/// The streams of a shuffled buffer read back to the CPU, in slot order.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ShuffledContents {
+    pub positions: Vec<u32>,
+    pub fine: Vec<u32>,
+    pub colors: Vec<u32>,
+}
+
+/// The buffers of slots `first_slot..first_slot + slots`.
+struct ShuffledChunk {
+    positions: wgpu::Buffer,
+    fine: Option<wgpu::Buffer>,
+    colors: wgpu::Buffer,
+    first_slot: u32,
+    slots: u32,
+}
+
+/// A point buffer of n slots that batches are shuffled into.
+pub struct ShuffledBuffer {
+    encoding: PointEncoding,
+    permutation: ShufflePermutation,
+    chunks: Vec<ShuffledChunk>,
+}
+
+impl ShuffledBuffer {
+    /// A buffer of `n` slots, split where the binding limit requires.
+    pub fn new(ctx: &GpuContext, encoding: PointEncoding, n: u32) -> Result<Self, GpuError> {
+        Self::with_chunk_slots(ctx, encoding, n, u32::MAX)
+    }
+
+    /// Like [`new`](Self::new), with at most `max_chunk_slots` slots per buffer (splitting
+    /// small buffers exercises the chunked path without gigabytes of memory).
+    pub fn with_chunk_slots(
+        ctx: &GpuContext,
+        encoding: PointEncoding,
+        n: u32,
+        max_chunk_slots: u32,
+    ) -> Result<Self, GpuError> {
+        let permutation =
+            ShufflePermutation::new(n as u64).map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+        // The position stream is the largest per point: it decides how many slots fit.
+        let limit = ctx.caps.max_binding.min(ctx.caps.max_buffer) / encoding.position_bytes();
+        let per_chunk = limit.min(max_chunk_slots as u64).max(1) as u32;
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::VERTEX
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
+        let alloc = |label: &str, bytes: u64| {
+            ctx.checked("allocating the shuffled point buffer", || {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes,
+                    usage,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        let mut chunks = Vec::new();
+        let mut first_slot = 0u32;
+        // An empty buffer still gets one (one-slot) chunk, so bindings are never empty.
+        while first_slot < n.max(1) {
+            let slots = (n.max(1) - first_slot).min(per_chunk);
+            let positions = alloc(
+                "shuffled positions",
+                slots as u64 * encoding.position_bytes(),
+            )?;
+            let fine = match encoding {
+                PointEncoding::Full16 => None,
+                PointEncoding::Compact8 => Some(alloc("shuffled fine", slots as u64 * 4)?),
+            };
+            let colors = alloc("shuffled colours", slots as u64 * 4)?;
+            chunks.push(ShuffledChunk {
+                positions,
+                fine,
+                colors,
+                first_slot,
+                slots,
+            });
+            first_slot += slots;
+        }
+        Ok(Self {
+            encoding,
+            permutation,
+            chunks,
+        })
+    }
+
+    pub fn encoding(&self) -> PointEncoding {
+        self.encoding
+    }
+
+    pub fn permutation(&self) -> ShufflePermutation {
+        self.permutation
+    }
+
+    /// Buffers the slots are split over.
+    pub fn chunk_count(&self) -> usize {
+        self.chunks.len()
+    }
+
+    /// Reads every stream back in slot order (waits for the GPU).
+    pub fn read(&self, ctx: &GpuContext) -> Result<ShuffledContents, GpuError> {
+        let mut out = ShuffledContents::default();
+        for chunk in &self.chunks {
+            out.positions.extend(read_words(ctx, &chunk.positions)?);
+            if let Some(fine) = &chunk.fine {
+                out.fine.extend(read_words(ctx, fine)?);
+            }
+            out.colors.extend(read_words(ctx, &chunk.colors)?);
+        }
+        // The one-slot chunk of an empty buffer holds no point.
+        let n = self.permutation.len() as usize;
+        let words = (self.encoding.position_bytes() / 4) as usize;
+        out.positions.truncate(n * words);
+        out.fine.truncate(n);
+        out.colors.truncate(n);
+        Ok(out)
+    }
+}
+
+fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u32>, GpuError> {
+    let readback = ctx.checked("reading the shuffled point buffer", || {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shuffled readback"),
+            size: buffer.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    })?;
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    enc.copy_buffer_to_buffer(buffer, 0, &readback, 0, buffer.size());
+    ctx.queue.submit([enc.finish()]);
+    let bytes = map_read(ctx, &readback)?;
+    Ok(bytemuck::pod_collect_to_vec(&bytes))
+}
+
+/// The uniform of shuffle.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct ShuffleUniform {
+    n: u32,
+    prime: u32,
+    first: u32,
+    count: u32,
+    first_slot: u32,
+    slots: u32,
+    words: u32,
+    has_fine: u32,
+}
+
+/// The staging streams, grown on demand.
+struct Staging {
+    capacity: u64,
+    positions: wgpu::Buffer,
+    fine: wgpu::Buffer,
+    colors: wgpu::Buffer,
+}
+
+/// Scatters batches into a [`ShuffledBuffer`] (shuffle.wgsl).
+pub struct ShufflePass {
+    pipeline: wgpu::ComputePipeline,
+    staging: Option<Staging>,
+}
+
+impl ShufflePass {
+    pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
+        let pipeline = ctx.checked("building the shuffle pass", || {
+            let module = shaders::module(&ctx.device, "shuffle", shaders::SHUFFLE);
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("shuffle"),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("scatter"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        })?;
+        Ok(Self {
+            pipeline,
+            staging: None,
+        })
+    }
+
+    /// Uploads `batch`, the points of global indices `first..first + count`, and moves each to
+    /// its shuffled slot of `dst`; submits the work (batches may follow at once).
+    pub fn scatter(
+        &mut self,
+        ctx: &GpuContext,
+        dst: &ShuffledBuffer,
+        first: u32,
+        batch: EncodedBatch<'_>,
+    ) -> Result<(), GpuError> {
+        let count = batch.colors.len() as u64;
+        let words = dst.encoding.position_bytes() / 4;
+        let compact = dst.encoding == PointEncoding::Compact8;
+        let fine_words = if compact { count } else { 0 };
+        if batch.positions.len() as u64 != count * words || batch.fine.len() as u64 != fine_words {
+            return Err(GpuError::InvalidInput(format!(
+                "a {} batch of {count} colours needs {} position and {fine_words} fine words, \
+                 got {} and {}",
+                dst.encoding.name(),
+                count * words,
+                batch.positions.len(),
+                batch.fine.len()
+            )));
+        }
+        let n = dst.permutation.len();
+        if first as u64 + count > n {
+            return Err(GpuError::InvalidInput(format!(
+                "points {first}..{} do not fit a shuffled buffer of {n} slots",
+                first as u64 + count
+            )));
+        }
+        if count == 0 {
+            return Ok(());
+        }
+        let staging = staging_for(&mut self.staging, ctx, count, words)?;
+        let q = &ctx.queue;
+        q.write_buffer(&staging.positions, 0, bytemuck::cast_slice(batch.positions));
+        q.write_buffer(&staging.fine, 0, bytemuck::cast_slice(batch.fine));
+        q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(batch.colors));
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        ctx.checked("recording the shuffle pass", || {
+            // One uniform and bind group per destination chunk: each dispatch sees its own.
+            let groups: Vec<wgpu::BindGroup> = dst
+                .chunks
+                .iter()
+                .map(|c| {
+                    let uniform = ShuffleUniform {
+                        n: n as u32,
+                        prime: dst.permutation.prime() as u32,
+                        first,
+                        count: count as u32,
+                        first_slot: c.first_slot,
+                        slots: c.slots,
+                        words: words as u32,
+                        has_fine: compact as u32,
+                    };
+                    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("shuffle uniform"),
+                        size: std::mem::size_of::<ShuffleUniform>() as u64,
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    q.write_buffer(&buffer, 0, bytemuck::bytes_of(&uniform));
+                    // Full16 binds the colours in the fine slot: the shader never touches it.
+                    let fine_dst = c.fine.as_ref().unwrap_or(&c.colors);
+                    let buffers = [
+                        &buffer,
+                        &staging.positions,
+                        &staging.fine,
+                        &staging.colors,
+                        &c.positions,
+                        fine_dst,
+                        &c.colors,
+                    ];
+                    storage_group(&ctx.device, "shuffle", &layout, &buffers)
+                })
+                .collect();
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("shuffle"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            let [x, y] = grid((count as u32).div_ceil(256));
+            for g in &groups {
+                pass.set_bind_group(0, g, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        })?;
+        q.submit([enc.finish()]);
+        Ok(())
+    }
+}
+
+/// The staging of `slot`, grown to hold `count` points of `words` position words.
+fn staging_for<'s>(
+    slot: &'s mut Option<Staging>,
+    ctx: &GpuContext,
+    count: u64,
+    words: u64,
+) -> Result<&'s Staging, GpuError> {
+    let bytes = count * words * 4;
+    let max = ctx.caps.max_binding.min(ctx.caps.max_buffer);
+    if bytes > max {
+        return Err(GpuError::InvalidInput(format!(
+            "a batch of {count} points ({bytes} bytes of positions) exceeds the binding \
+             limit of {max} bytes: send smaller batches"
+        )));
+    }
+    let grown = match slot.take() {
+        Some(s) if s.capacity >= count => s,
+        old => {
+            let old_capacity = old.map_or(0, |s| s.capacity);
+            let capacity = count
+                .max(old_capacity * 2)
+                .max(1 << 16)
+                .min(max / (words * 4));
+            let buffer = |label: &str, bytes: u64| {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            };
+            ctx.checked("allocating the shuffle staging", || Staging {
+                capacity,
+                positions: buffer("shuffle staging positions", capacity * words * 4),
+                fine: buffer("shuffle staging fine", capacity * 4),
+                colors: buffer("shuffle staging colours", capacity * 4),
+            })?
+        }
+    };
+    Ok(slot.insert(grown))
+}

@@ -1,0 +1,254 @@
+//! The GPU shuffle pass against the CPU permutation: batches scattered into a shuffled
+//! buffer land exactly where `ShufflePermutation::target` puts them, and the shader's 32-bit
+//! modular arithmetic is exact up to primes just below 2^32.
+
+mod common;
+
+use pointlet_core::progressive::{prime_3_mod_4_at_most, ShufflePermutation};
+use pointlet_core::shuffle::SplitMix64;
+use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents};
+use pointlet_gpu::{GpuContext, GpuError, PointEncoding};
+
+/// Distinct pseudo-random streams for `n` points, in load order.
+fn points(n: u32, encoding: PointEncoding, seed: u64) -> ShuffledContents {
+    let mut rng = SplitMix64::new(seed);
+    let mut word = || rng.next_u64() as u32;
+    let words = (encoding.position_bytes() / 4) as usize;
+    let compact = encoding == PointEncoding::Compact8;
+    let mut out = ShuffledContents::default();
+    for _ in 0..n {
+        out.positions.extend((0..words).map(|_| word()));
+        if compact {
+            out.fine.push(word());
+        }
+        out.colors.push(word());
+    }
+    out
+}
+
+/// Where the CPU permutation puts every point.
+fn reference(loaded: &ShuffledContents, n: u32, encoding: PointEncoding) -> ShuffledContents {
+    let perm = ShufflePermutation::new(n as u64).unwrap();
+    let words = (encoding.position_bytes() / 4) as usize;
+    let mut out = ShuffledContents {
+        positions: vec![0; loaded.positions.len()],
+        fine: vec![0; loaded.fine.len()],
+        colors: vec![0; loaded.colors.len()],
+    };
+    for i in 0..n as usize {
+        let t = perm.target(i as u64) as usize;
+        out.colors[t] = loaded.colors[i];
+        out.positions[t * words..(t + 1) * words]
+            .copy_from_slice(&loaded.positions[i * words..(i + 1) * words]);
+        if !loaded.fine.is_empty() {
+            out.fine[t] = loaded.fine[i];
+        }
+    }
+    out
+}
+
+/// Scatters `loaded` in batches of the given sizes (the last takes the rest).
+fn scatter_in_batches(
+    ctx: &GpuContext,
+    pass: &mut ShufflePass,
+    dst: &ShuffledBuffer,
+    loaded: &ShuffledContents,
+    sizes: &[usize],
+) {
+    let words = (dst.encoding().position_bytes() / 4) as usize;
+    let fine_words = usize::from(!loaded.fine.is_empty());
+    let n = loaded.colors.len();
+    let mut first = 0;
+    for (k, size) in sizes.iter().enumerate() {
+        let end = if k + 1 == sizes.len() {
+            n
+        } else {
+            (first + size).min(n)
+        };
+        let batch = EncodedBatch {
+            positions: &loaded.positions[first * words..end * words],
+            fine: &loaded.fine[first * fine_words..end * fine_words],
+            colors: &loaded.colors[first..end],
+        };
+        pass.scatter(ctx, dst, first as u32, batch).unwrap();
+        first = end;
+    }
+}
+
+#[test]
+fn batches_land_where_the_cpu_permutation_puts_them() {
+    let ctx = common::context();
+    let mut pass = ShufflePass::new(&ctx).unwrap();
+    // Not a prime: the slots above P stay in place. Batch sizes cross chunk borders, and one
+    // outgrows the first staging allocation.
+    let n = 300_010u32;
+    let sizes = [1, 4_999, 100_000, 37, 70_000, 0];
+    for (encoding, chunk_slots) in [
+        (PointEncoding::Full16, u32::MAX),
+        (PointEncoding::Full16, 70_001),
+        (PointEncoding::Compact8, 123_457),
+    ] {
+        let dst = ShuffledBuffer::with_chunk_slots(&ctx, encoding, n, chunk_slots).unwrap();
+        let expected_chunks = if chunk_slots == u32::MAX {
+            1
+        } else {
+            n.div_ceil(chunk_slots) as usize
+        };
+        assert_eq!(dst.chunk_count(), expected_chunks);
+        let loaded = points(n, encoding, n as u64 ^ chunk_slots as u64);
+        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes);
+        let got = dst.read(&ctx).unwrap();
+        let want = reference(&loaded, n, encoding);
+        assert_eq!(got.colors.len(), n as usize);
+        let wrong = (0..n as usize)
+            .filter(|&s| got.colors[s] != want.colors[s])
+            .count();
+        assert_eq!(
+            wrong, 0,
+            "{encoding:?} / {chunk_slots}: {wrong} slots differ"
+        );
+        assert!(
+            got == want,
+            "{encoding:?} / {chunk_slots}: the streams differ"
+        );
+    }
+}
+
+#[test]
+fn malformed_batches_are_refused() {
+    let ctx = common::context();
+    let mut pass = ShufflePass::new(&ctx).unwrap();
+    let dst = ShuffledBuffer::new(&ctx, PointEncoding::Full16, 100).unwrap();
+    let words = [0u32; 30];
+    let colors = [0u32; 10];
+    let batch = |positions, fine| EncodedBatch {
+        positions,
+        fine,
+        colors: &colors,
+    };
+    let refused = |r: Result<(), GpuError>| matches!(r, Err(GpuError::InvalidInput(_)));
+    assert!(refused(pass.scatter(&ctx, &dst, 91, batch(&words, &[]))));
+    assert!(refused(pass.scatter(
+        &ctx,
+        &dst,
+        0,
+        batch(&words[..29], &[])
+    )));
+    assert!(refused(pass.scatter(&ctx, &dst, 0, batch(&words, &colors))));
+    assert!(pass.scatter(&ctx, &dst, 90, batch(&words, &[])).is_ok());
+}
+
+/// A kernel calling shuffle.wgsl's arithmetic on given operands: (a, b, p, i) →
+/// (a·b mod p, target(i) under p).
+const CHECK_KERNEL: &str = "
+@group(0) @binding(10) var<storage, read> cases: array<vec4<u32>>;
+@group(0) @binding(11) var<storage, read_write> results: array<vec2<u32>>;
+
+@compute @workgroup_size(64)
+fn check(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= arrayLength(&cases) {
+        return;
+    }
+    let c = cases[gid.x];
+    results[gid.x] = vec2<u32>(mul_mod(c.x, c.y, c.z), shuffle_target(c.w, c.z));
+}
+";
+
+fn run_check_kernel(ctx: &GpuContext, cases: &[[u32; 4]]) -> Vec<[u32; 2]> {
+    let device = &ctx.device;
+    let source = format!(
+        "{}\n{CHECK_KERNEL}",
+        include_str!("../shaders/shuffle.wgsl")
+    );
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("shuffle arithmetic"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("shuffle arithmetic"),
+        layout: None,
+        module: &module,
+        entry_point: Some("check"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let buffer = |size: u64, usage| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+    let input = buffer(cases.len() as u64 * 16, storage);
+    let result_bytes = cases.len() as u64 * 8;
+    let output = buffer(result_bytes, storage | wgpu::BufferUsages::COPY_SRC);
+    let readback = buffer(
+        result_bytes,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    ctx.queue
+        .write_buffer(&input, 0, bytemuck::cast_slice(cases));
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 10,
+                resource: input.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 11,
+                resource: output.as_entire_binding(),
+            },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&output, 0, &readback, 0, result_bytes);
+    ctx.queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    readback
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, move |r| tx.send(r).unwrap());
+    ctx.wait().unwrap();
+    rx.recv().unwrap().unwrap();
+    let bytes = readback.slice(..).get_mapped_range().unwrap().to_vec();
+    bytemuck::pod_collect_to_vec(&bytes)
+}
+
+#[test]
+fn shader_arithmetic_is_exact_for_primes_near_2_32() {
+    let ctx = common::context();
+    let mut rng = SplitMix64::new(11);
+    let mut cases = Vec::new();
+    // The largest primes ≡ 3 (mod 4) below 2^32, 2^31 and 2^16, and the smallest ones.
+    for limit in [u32::MAX as u64, 1 << 31, 1 << 16, 7, 3] {
+        let p = prime_3_mod_4_at_most(limit).unwrap();
+        let mut operands = vec![0, 1, 2, p / 2, p / 2 + 1, p - 2, p - 1];
+        operands.extend([65_535, 65_536, 65_537, (1 << 31) - 1, 1 << 31]);
+        operands.extend((0..8).map(|_| rng.below(p)));
+        operands.retain(|&v| v < p);
+        for &a in &operands {
+            for &b in &operands {
+                cases.push([a as u32, b as u32, p as u32, b as u32]);
+            }
+        }
+    }
+    let results = run_check_kernel(&ctx, &cases);
+    assert_eq!(results.len(), cases.len());
+    for (c, r) in cases.iter().zip(&results) {
+        let [a, b, p, i] = c.map(u64::from);
+        let perm = ShufflePermutation::new(p).unwrap();
+        assert_eq!(perm.prime(), p);
+        let product = ((a as u128 * b as u128) % p as u128) as u64;
+        assert_eq!(r[0] as u64, product, "{a}·{b} mod {p}");
+        assert_eq!(r[1] as u64, perm.target(i), "target({i}) under {p}");
+    }
+}
