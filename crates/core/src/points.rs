@@ -410,8 +410,20 @@ mod tests {
     #[test]
     fn rounding_matches_f64_round() {
         let mut rng = crate::shuffle::SplitMix64::new(11);
-        let mut cases = vec![0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.0, 1e15 + 0.5];
-        cases.extend((0..100_000).map(|_| (rng.next_u64() as i64 as f64) / 2f64.powi(rng.below(60) as i32)));
+        let mut cases = vec![
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            -0.0,
+            1e15 + 0.5,
+        ];
+        cases.extend(
+            (0..100_000).map(|_| (rng.next_u64() as i64 as f64) / 2f64.powi(rng.below(60) as i32)),
+        );
         cases.extend((0..10_000).map(|i| i as f64 * 0.5 - 2500.0));
         for v in cases {
             assert_eq!(super::round_half_away(v), v.round() as i64, "{v}");
