@@ -71,6 +71,44 @@ impl ShufflePermutation {
     }
 }
 
+/// Where point `i` of a file goes in a shuffled buffer that holds fewer slots than the file
+/// has points. The first `capacity` points fill it through the permutation; each later point i
+/// takes slot j for a j uniform in `0..=i` when j < capacity, else is left out (reservoir
+/// sampling, Vitter's Algorithm R). At any time the buffer holds a uniform random subset of the
+/// points read so far, and since its slots are exchangeable, so does every prefix of it. j is a
+/// hash of (seed, i), so points can be placed in parallel; of two points that pick the same
+/// slot, the later one must win.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reservoir {
+    permutation: ShufflePermutation,
+    seed: u64,
+}
+
+impl Reservoir {
+    pub fn new(capacity: u64, seed: u64) -> Result<Self, ShuffleError> {
+        Ok(Self {
+            permutation: ShufflePermutation::new(capacity)?,
+            seed,
+        })
+    }
+
+    pub fn capacity(&self) -> u64 {
+        self.permutation.len()
+    }
+
+    /// The slot of point `i`, or `None` when it is left out.
+    pub fn slot(&self, i: u64) -> Option<u64> {
+        let capacity = self.permutation.len();
+        if i < capacity {
+            return Some(self.permutation.target(i));
+        }
+        let h = crate::shuffle::mix_seed(self.seed, i);
+        // Uniform in 0..=i by a multiply-shift (bias below 2^-32 for i < 2^32).
+        let j = ((u128::from(h) * (u128::from(i) + 1)) >> 64) as u64;
+        (j < capacity).then_some(j)
+    }
+}
+
 /// The largest prime P ≡ 3 (mod 4) with P ≤ n, searching downward; `None` below 3.
 pub fn prime_3_mod_4_at_most(n: u64) -> Option<u64> {
     if n < 3 {
@@ -244,6 +282,63 @@ mod tests {
     /// incomplete gamma function P(255/2, x/2); Wilson–Hilferty's approximation
     /// k·(1 − 2/(9k) + z·√(2/(9k)))³ with z = 3.0902 agrees (330.55).
     const CHI2_255_AT_0_001: f64 = 330.52;
+
+    /// Slot → point after streaming points `0..n` through `r`, later points winning.
+    fn reservoir_fill(r: &Reservoir, n: u64) -> Vec<u32> {
+        let mut slots = vec![u32::MAX; r.capacity() as usize];
+        for i in 0..n {
+            if let Some(s) = r.slot(i) {
+                assert!(s < r.capacity(), "point {i} goes to slot {s}");
+                slots[s as usize] = i as u32;
+            }
+        }
+        slots
+    }
+
+    #[test]
+    fn a_reservoir_keeps_a_uniform_subset_of_everything_read() {
+        // Chi-square with 9 degrees of freedom at significance 0.001: 27.877 (tables).
+        const CHI2_9_AT_0_001: f64 = 27.877;
+        let capacity = 20_000u64;
+        for (seed, n) in [(1u64, 200_000u64), (2, 1_000_000), (3, 20_001)] {
+            let r = Reservoir::new(capacity, seed).unwrap();
+            let slots = reservoir_fill(&r, n);
+            assert!(slots.iter().all(|&p| p != u32::MAX), "a slot stayed empty");
+            // Each tenth of the input order should hold a tenth of the kept points.
+            let mut deciles = [0u32; 10];
+            for &p in &slots {
+                deciles[(p as u64 * 10 / n) as usize] += 1;
+            }
+            let expected = capacity as f64 / 10.0;
+            let chi: f64 = deciles
+                .iter()
+                .map(|&c| (c as f64 - expected).powi(2) / expected)
+                .sum();
+            assert!(
+                chi < CHI2_9_AT_0_001,
+                "seed {seed}, n {n}: χ² = {chi}, {deciles:?}"
+            );
+        }
+        // Within capacity it is the plain permutation, and it is deterministic.
+        let r = Reservoir::new(capacity, 9).unwrap();
+        let perm = ShufflePermutation::new(capacity).unwrap();
+        assert!((0..capacity).all(|i| r.slot(i) == Some(perm.target(i))));
+        assert_eq!(reservoir_fill(&r, 100_000), reservoir_fill(&r, 100_000));
+    }
+
+    #[test]
+    fn prefixes_of_a_reservoir_over_a_sorted_grid_are_uniform() {
+        // The grid (row by row) is four times the buffer: the buffer keeps a quarter of it.
+        let side = 1024u32;
+        let n = (side * side) as u64;
+        let r = Reservoir::new(n / 4, 5).unwrap();
+        let slots = reservoir_fill(&r, n);
+        for percent in [5, 25, 100] {
+            let k = slots.len() * percent / 100;
+            let chi = chi_square(&slots[..k], side);
+            assert!(chi < CHI2_255_AT_0_001, "{percent} % prefix: χ² = {chi}");
+        }
+    }
 
     #[test]
     fn prefixes_of_a_shuffled_sorted_grid_are_uniform() {
