@@ -1025,23 +1025,30 @@ fn key_and_pack(
     recs: &mut [u8],
     pairs: &mut [(u64, u32)],
 ) -> KeyChunk {
+    // Blocks small enough that their records stay in the L2 cache while packed field by field.
+    const BLOCK: usize = 2048;
     let mut lo = [i32::MAX; 3];
     let mut hi = [i32::MIN; 3];
-    for (j, (rec, pair)) in recs
-        .chunks_exact_mut(rl.len)
-        .zip(pairs.iter_mut())
+    let mut raw = [[0i32; 3]; BLOCK];
+    for (b, (recs, pairs)) in recs
+        .chunks_mut(BLOCK * rl.len)
+        .zip(pairs.chunks_mut(BLOCK))
         .enumerate()
     {
-        let p = batch.xyz[from + j];
-        let raw = q
-            .quantize(p)
-            .map_err(|e| (j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
-        for a in 0..3 {
-            lo[a] = lo[a].min(raw[a]);
-            hi[a] = hi[a].max(raw[a]);
+        let first = b * BLOCK;
+        let raw = &mut raw[..pairs.len()];
+        for (j, (r, pair)) in raw.iter_mut().zip(pairs.iter_mut()).enumerate() {
+            let p = batch.xyz[from + first + j];
+            *r = q
+                .quantize(p)
+                .map_err(|e| (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
+            for a in 0..3 {
+                lo[a] = lo[a].min(r[a]);
+                hi[a] = hi[a].max(r[a]);
+            }
+            *pair = (grid.hilbert(q.dequantize(*r)), (index + first + j) as u32);
         }
-        *pair = (grid.hilbert(q.dequantize(raw)), (index + j) as u32);
-        rl.pack(batch, from + j, raw, rec);
+        rl.pack_block(batch, from + first, raw, recs);
     }
     Ok((lo, hi))
 }
