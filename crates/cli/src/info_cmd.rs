@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result};
 use pointlet_core::crs::{Crs, CrsId};
+use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::{Aabb, LasFields, PointLayout, SourceMeta, Vlr};
 use serde_json::{json, Value};
 use std::path::PathBuf;
@@ -82,7 +83,7 @@ fn store_info(args: &Args) -> Result<Value> {
         "bounds": bounds_json(&h.bounds, Some(h.quantization.scale)),
         "scale": h.quantization.scale,
         "offset": h.quantization.offset.map(|o| o + 0.0),
-        "attributes": attributes(&h.layout),
+        "attributes": attributes(&h.layout, &h.vlrs),
         "las_point_format": h.las_point_format,
         "crs": crs(&h.vlrs),
         "file_source_id": h.las.as_ref().map(|l| l.file_source_id),
@@ -131,7 +132,7 @@ fn file_info(m: &SourceMeta, points_bounds: Option<Aabb>) -> Value {
         "gps_time_type": gps_time_type(m.las.as_ref(), &m.layout),
         "scale": m.quantization.map(|q| q.scale),
         "offset": m.quantization.map(|q| q.offset.map(|o| o + 0.0)),
-        "attributes": attributes(&m.layout),
+        "attributes": attributes(&m.layout, &m.vlrs),
         "las_point_format": m.las_point_format,
         "crs": crs(&m.vlrs),
     })
@@ -168,8 +169,10 @@ fn round_to_step(v: f64, step: f64) -> f64 {
     (v * factor).round() / factor + 0.0
 }
 
-/// Attribute names in the order the store keeps its streams.
-pub fn attributes(l: &PointLayout) -> Vec<String> {
+/// Attribute names in the order the store keeps its streams; the extra bytes by the names
+/// and types their record gives (`height (i16, extra)`), what it leaves undescribed as
+/// `extra_bytes[N]`.
+pub fn attributes(l: &PointLayout, vlrs: &[Vlr]) -> Vec<String> {
     let mut a: Vec<String> = [
         "position",
         "intensity",
@@ -200,7 +203,15 @@ pub fn attributes(l: &PointLayout) -> Vec<String> {
         a.push("waveform".into());
     }
     if l.extra_bytes > 0 {
-        a.push(format!("extra_bytes[{}]", l.extra_bytes));
+        let extra = ExtraAttributes::from_vlrs(vlrs, usize::from(l.extra_bytes));
+        for x in &extra.attributes {
+            a.push(format!("{} ({}, extra)", x.name, x.kind.name()));
+        }
+        match (&extra.problem, extra.undocumented) {
+            (Some(why), n) => a.push(format!("extra_bytes[{n}] ({why})")),
+            (None, 0) => {}
+            (None, n) => a.push(format!("extra_bytes[{n}]")),
+        }
     }
     a
 }

@@ -478,3 +478,22 @@ fn bench_quality_refuses_a_zero_bucket_as_render_does() {
         &["--buckets", "at least 1"],
     );
 }
+
+#[test]
+fn info_names_extra_bytes_attributes_from_their_record() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("eb.pointlet");
+    ok(&["convert", s(&data("extrabytes.las")), "-o", s(&store)]);
+    for input in [data("extrabytes.las"), store] {
+        let text = ok(&["info", s(&input)]);
+        // The record describes 20 of the 27 bytes: a u16 triple, an i8 pair, a u32, a u64,
+        // and 7 undocumented bytes between them.
+        for a in [
+            "Colors[0] (u16, extra), Colors[1] (u16, extra), Colors[2] (u16, extra)",
+            "Flags[0] (i8, extra), Flags[1] (i8, extra)",
+            "Intensity (u32, extra), Time (u64, extra), extra_bytes[7]",
+        ] {
+            assert!(text.contains(a), "{a} missing in:\n{text}");
+        }
+    }
+}
