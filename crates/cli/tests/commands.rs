@@ -497,3 +497,33 @@ fn info_names_extra_bytes_attributes_from_their_record() {
         }
     }
 }
+
+#[test]
+fn every_standard_attribute_can_colour_files_and_stores() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("s.pointlet");
+    ok(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    for (k, input) in [data("simple.las"), store].iter().enumerate() {
+        let render = |mode: &str| {
+            let png = dir.path().join(format!("{k}-{mode}.png"));
+            let args = ["render", s(input), "-o", s(&png), "--width", "64"];
+            ok(&[&args[..], &["--color", mode]].concat());
+            std::fs::read(&png).expect("png")
+        };
+        let elevation = render("elevation");
+        for mode in ["scan-angle", "user-data"] {
+            assert!(render(mode) != elevation, "{mode} draws like elevation");
+        }
+        fails(
+            &[
+                "render",
+                s(input),
+                "-o",
+                s(&dir.path().join("n.png")),
+                "--color",
+                "nir",
+            ],
+            &["no nir attribute"],
+        );
+    }
+}

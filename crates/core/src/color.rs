@@ -13,10 +13,13 @@ pub enum ColorMode {
     ReturnNumber,
     PointSourceId,
     GpsTime,
+    ScanAngle,
+    UserData,
+    Nir,
 }
 
 impl ColorMode {
-    pub const ALL: [ColorMode; 7] = [
+    pub const ALL: [ColorMode; 10] = [
         ColorMode::Rgb,
         ColorMode::Intensity,
         ColorMode::Elevation,
@@ -24,6 +27,9 @@ impl ColorMode {
         ColorMode::ReturnNumber,
         ColorMode::PointSourceId,
         ColorMode::GpsTime,
+        ColorMode::ScanAngle,
+        ColorMode::UserData,
+        ColorMode::Nir,
     ];
 
     pub fn name(self) -> &'static str {
@@ -35,6 +41,9 @@ impl ColorMode {
             ColorMode::ReturnNumber => "return-number",
             ColorMode::PointSourceId => "point-source-id",
             ColorMode::GpsTime => "gps-time",
+            ColorMode::ScanAngle => "scan-angle",
+            ColorMode::UserData => "user-data",
+            ColorMode::Nir => "nir",
         }
     }
 
@@ -45,13 +54,28 @@ impl ColorMode {
 
 impl ColorMode {
     /// Whether data of `layout` has what this mode colours by (every point has a position,
-    /// intensity, returns, class and source id; RGB and GPS time only in some formats).
+    /// intensity, returns, class, scan angle, user data and source id; RGB, GPS time and NIR
+    /// only in some formats).
     pub fn available_in(self, layout: &PointLayout) -> bool {
         match self {
             ColorMode::Rgb => layout.rgb,
             ColorMode::GpsTime => layout.gps_time,
+            ColorMode::Nir => layout.nir,
             _ => true,
         }
+    }
+
+    /// Whether the mode maps a scalar through a range and a ramp (rather than fixed colours).
+    pub fn is_scalar(self) -> bool {
+        matches!(
+            self,
+            ColorMode::Intensity
+                | ColorMode::Elevation
+                | ColorMode::GpsTime
+                | ColorMode::ScanAngle
+                | ColorMode::UserData
+                | ColorMode::Nir
+        )
     }
 }
 
@@ -154,6 +178,18 @@ impl ColorScale {
                 .collect()),
             ColorMode::Elevation => z_range,
             ColorMode::GpsTime => pct(sample.iter().flat_map(|b| b.gps_time.clone()).collect()),
+            ColorMode::ScanAngle => pct(sample
+                .iter()
+                .flat_map(|b| b.scan_angle.iter().map(|v| f64::from(*v)))
+                .collect()),
+            ColorMode::UserData => pct(sample
+                .iter()
+                .flat_map(|b| b.user_data.iter().map(|v| f64::from(*v)))
+                .collect()),
+            ColorMode::Nir => pct(sample
+                .iter()
+                .flat_map(|b| b.nir.iter().map(|v| f64::from(*v)))
+                .collect()),
             ColorMode::PointSourceId => [0.0, 1.0],
             _ => [0.0, 1.0],
         };
@@ -328,6 +364,18 @@ pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
             .gps_time
             .get(i)
             .map_or(grey, |t| scale.ramp.at(norm(*t))),
+        ColorMode::ScanAngle => batch
+            .scan_angle
+            .get(i)
+            .map_or(grey, |v| scale.ramp.at(norm(f64::from(*v)))),
+        ColorMode::UserData => batch
+            .user_data
+            .get(i)
+            .map_or(grey, |v| scale.ramp.at(norm(f64::from(*v)))),
+        ColorMode::Nir => batch
+            .nir
+            .get(i)
+            .map_or(grey, |v| scale.ramp.at(norm(f64::from(*v)))),
     };
     pack_rgba(c, batch.classification.get(i).copied().unwrap_or(0))
 }

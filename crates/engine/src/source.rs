@@ -28,6 +28,9 @@ fn stream_for(mode: ColorMode) -> Option<StreamKind> {
         ColorMode::ReturnNumber => Some(StreamKind::Returns),
         ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
         ColorMode::GpsTime => Some(StreamKind::GpsTime),
+        ColorMode::ScanAngle => Some(StreamKind::ScanAngle),
+        ColorMode::UserData => Some(StreamKind::UserData),
+        ColorMode::Nir => Some(StreamKind::Nir),
     }
 }
 
@@ -167,6 +170,14 @@ fn fill_column(batch: &mut PointBatch, kind: StreamKind, raw: &[u8]) {
         StreamKind::Intensity => batch.intensity = u16s().collect(),
         StreamKind::PointSourceId => batch.point_source_id = u16s().collect(),
         StreamKind::Classification => batch.classification = raw.to_vec(),
+        StreamKind::UserData => batch.user_data = raw.to_vec(),
+        StreamKind::Nir => batch.nir = u16s().collect(),
+        StreamKind::ScanAngle => {
+            batch.scan_angle = raw
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect()
+        }
         StreamKind::Returns => batch.returns = raw.to_vec(),
         StreamKind::GpsTime => {
             batch.gps_time = raw

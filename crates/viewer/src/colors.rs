@@ -3,7 +3,7 @@
 use pointlet_core::color::{classification_color, classification_name, ColorMode, ColorScale};
 use pointlet_core::PointLayout;
 
-/// The colour modes a layout can show (RGB and GPS time only where the data has them).
+/// The colour modes a layout can show (RGB, GPS time and NIR only where the data has them).
 pub fn available_modes(layout: &PointLayout) -> Vec<ColorMode> {
     ColorMode::ALL
         .into_iter()
@@ -27,7 +27,7 @@ pub fn knobs(mode: ColorMode) -> ScaleKnobs {
             gamma: true,
             ramp: false,
         },
-        ColorMode::Elevation | ColorMode::GpsTime => ScaleKnobs {
+        m if m.is_scalar() => ScaleKnobs {
             range: true,
             gamma: true,
             ramp: true,
@@ -140,9 +140,11 @@ mod tests {
     fn modes_follow_the_layout() {
         let plain = available_modes(&PointLayout::default());
         assert!(!plain.contains(&ColorMode::Rgb) && !plain.contains(&ColorMode::GpsTime));
+        assert!(!plain.contains(&ColorMode::Nir) && plain.contains(&ColorMode::ScanAngle));
         let full = available_modes(&PointLayout {
             rgb: true,
             gps_time: true,
+            nir: true,
             ..Default::default()
         });
         assert_eq!(full.len(), ColorMode::ALL.len());
