@@ -309,3 +309,22 @@ fn after_a_pan_reprojection_keeps_the_previous_points() {
         "without reprojection {control} of {all} pixels lit (64 points filled)"
     );
 }
+
+#[test]
+fn variants_without_one_kept_closest_point_per_pixel_are_refused() {
+    let ctx = context();
+    for variant in [
+        RasterVariant::Hqs,
+        RasterVariant::Hqs1r,
+        RasterVariant::AtomicMin32,
+        RasterVariant::HwPoints,
+    ] {
+        match ProgressiveRenderer::new(&ctx, variant, PAGE) {
+            Err(pointlet_gpu::GpuError::Unsupported { what, .. }) => {
+                assert_eq!(what, variant.name())
+            }
+            Err(e) => panic!("{}: unexpected error {e}", variant.name()),
+            Ok(_) => panic!("{}: accepted", variant.name()),
+        }
+    }
+}
