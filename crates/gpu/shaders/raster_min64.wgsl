@@ -3,10 +3,13 @@
 // Key = ~depth_bits << 32 | ~rgba and atomicMax: the same winner as the paper's atomicMin of
 // depth << 32 | colour (closest point; on equal depth the smaller colour), but an empty pixel is
 // 0, so the framebuffer is cleared with a plain buffer clear instead of a fill pass.
+// INDEX_KEYS (progressive rendering, progressive.rs) puts the point's id (its slot in the shuffled
+// buffer) in the low word instead of the colour, so the Prepare pass can list the winners.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
 override EARLY_Z: bool = false;
+override INDEX_KEYS: bool = false;
 
 @group(1) @binding(0) var<storage, read_write> framebuffer: array<atomic<u64>>;
 
@@ -35,6 +38,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         if class_hidden(color) {
             continue;
         }
-        atomicMax(&framebuffer[hit.pixel], point_key(hit.depth_bits, color));
+        let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+        atomicMax(&framebuffer[hit.pixel], point_key(hit.depth_bits, low));
     }
 }

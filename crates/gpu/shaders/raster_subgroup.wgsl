@@ -4,11 +4,13 @@
 // MODE 1 (`dedup`): WGSL has no subgroupPartitionNV, so lanes are partitioned by pixel in rounds:
 // each round takes the smallest pending pixel id, its closest lane writes, its lanes retire;
 // after DEDUP_ROUNDS rounds the remaining lanes write directly (bounded cost on close-ups).
-// EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements).
+// EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements),
+// with the point id instead of the colour under INDEX_KEYS.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
 override EARLY_Z: bool = false;
+override INDEX_KEYS: bool = false;
 override MODE: u32 = 0u;
 override DEDUP_ROUNDS: u32 = 4u;
 
@@ -42,6 +44,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
                 if !class_hidden(color) {
                     pixel = hit.pixel;
                     inv_depth = ~hit.depth_bits;
+                    color = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
                 }
             }
         }

@@ -8,6 +8,7 @@ mod context;
 mod hw_points;
 mod paged;
 mod pick;
+pub mod progressive;
 mod raster;
 pub mod reference;
 mod renderer;

@@ -216,6 +216,28 @@ impl RasterPipelines {
         encoding: PointEncoding,
         page_size: u32,
     ) -> Self {
+        Self::build(device, variant, encoding, page_size, false)
+    }
+
+    /// A closest-point variant keyed by point id instead of colour (progressive rendering's
+    /// Fill pass: its Prepare pass lists the winning points).
+    pub fn indexed(
+        device: &wgpu::Device,
+        variant: RasterVariant,
+        encoding: PointEncoding,
+        page_size: u32,
+    ) -> Self {
+        Self::build(device, variant, encoding, page_size, true)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        variant: RasterVariant,
+        encoding: PointEncoding,
+        page_size: u32,
+        index_keys: bool,
+    ) -> Self {
+        let index_keys = ("INDEX_KEYS", index_keys as u32 as f64);
         let group0 = point_group_layout(device, encoding);
         let stage =
             |label: &str, body: &str, entry: &str, consts: &[(&str, f64)], buffers: Vec<usize>| {
@@ -261,7 +283,10 @@ impl RasterPipelines {
                 variant.name(),
                 shaders::RASTER_MIN64,
                 "raster",
-                &[("EARLY_Z", (variant == RasterVariant::EarlyZ) as u32 as f64)],
+                &[
+                    ("EARLY_Z", (variant == RasterVariant::EarlyZ) as u32 as f64),
+                    index_keys,
+                ],
                 vec![0],
             )],
             RasterVariant::Reduce | RasterVariant::ReduceEarlyZ | RasterVariant::Dedup => {
@@ -271,7 +296,11 @@ impl RasterPipelines {
                     variant.name(),
                     shaders::RASTER_SUBGROUP,
                     "raster",
-                    &[("EARLY_Z", early as u32 as f64), ("MODE", mode as f64)],
+                    &[
+                        ("EARLY_Z", early as u32 as f64),
+                        ("MODE", mode as f64),
+                        index_keys,
+                    ],
                     vec![0],
                 )]
             }

@@ -26,6 +26,9 @@ pub const LOD: &str = include_str!("../shaders/lod.wgsl");
 pub const UPLOAD: &str = include_str!("../shaders/upload.wgsl");
 pub const TABLES: &str = include_str!("../shaders/tables.wgsl");
 pub const SHUFFLE: &str = include_str!("../shaders/shuffle.wgsl");
+pub const PROGRESSIVE_REPROJECT: &str = include_str!("../shaders/progressive_reproject.wgsl");
+pub const PROGRESSIVE_PREPARE: &str = include_str!("../shaders/progressive_prepare.wgsl");
+pub const PROGRESSIVE_LOOKUP: &str = include_str!("../shaders/progressive_lookup.wgsl");
 
 /// A point pass: header + fetch for `encoding` + body.
 pub fn point_pass(encoding: PointEncoding, body: &str) -> String {

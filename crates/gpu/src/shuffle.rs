@@ -8,7 +8,7 @@
 use crate::context::GpuContext;
 use crate::raster::{grid, storage_group};
 use crate::shaders;
-use crate::storage::PointEncoding;
+use crate::storage::{PointEncoding, PointStorage};
 use crate::target::map_read;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
@@ -106,6 +106,36 @@ impl ShuffledBuffer {
         }
         Ok(Self {
             encoding,
+            permutation,
+            chunks,
+        })
+    }
+
+    /// A buffer of `n` slots in the page slots of `storage`: shuffled slot s is point
+    /// s % page_size of page s / page_size, so the rasterizers draw it as they draw any page
+    /// (progressive.rs). The buffers are shared, not copied.
+    pub(crate) fn in_storage(storage: &PointStorage, n: u32) -> Result<Self, GpuError> {
+        let permutation =
+            ShufflePermutation::new(n as u64).map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+        let page = storage.page_size as u64;
+        let chunks = storage
+            .chunks
+            .iter()
+            .map(|c| {
+                let first_slot = c.first_slot as u64 * page;
+                // Slots past n (the last page's tail) are never shuffled into.
+                let slots = (c.slots as u64 * page).min((n as u64).saturating_sub(first_slot));
+                ShuffledChunk {
+                    positions: c.positions.clone(),
+                    fine: c.fine.clone(),
+                    colors: c.colors.clone(),
+                    first_slot: first_slot.min(u32::MAX as u64) as u32,
+                    slots: slots as u32,
+                }
+            })
+            .collect();
+        Ok(Self {
+            encoding: storage.encoding,
             permutation,
             chunks,
         })

@@ -289,9 +289,11 @@ impl PointStorage {
         while first_slot < total_slots.max(1) {
             let slots = (total_slots.max(1) - first_slot).min(slots_per_chunk);
             let chunk_index = chunks.len();
+            // COPY_SRC: a shuffled buffer living in these slots can be read back.
             let usage = wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::VERTEX
-                | wgpu::BufferUsages::COPY_DST;
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC;
             let alloc = |label: &str, bytes: u64| {
                 ctx.checked("allocating GPU point memory", || {
                     device.create_buffer(&wgpu::BufferDescriptor {

@@ -104,7 +104,12 @@ impl RenderTarget {
         let layers = [
             Layer {
                 color: texture("raster colour", COLOR_FORMAT, attach),
-                depth: texture("raster depth", DEPTH_FORMAT, attach),
+                // COPY_SRC: read_depth copies it out (without it the copy fails validation).
+                depth: texture(
+                    "raster depth",
+                    DEPTH_FORMAT,
+                    attach | wgpu::TextureUsages::COPY_SRC,
+                ),
             },
             Layer {
                 color: texture("filled colour", COLOR_FORMAT, wgpu::TextureUsages::empty()),

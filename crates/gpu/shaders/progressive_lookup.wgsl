@@ -1,0 +1,28 @@
+// Colour lookup of progressive rendering (progressive-rendering paper §3.4: the Reproject and
+// Fill passes write point indices, the image shows their colours): turns each pixel's
+// ~depth << 32 | ~slot key into the ~depth << 32 | ~rgba key the existing 64-bit resolve reads
+// (resolve_min64.wgsl). One dispatch per point-buffer chunk, each converting the pixels whose
+// slot lies in its chunk; empty pixels stay 0 (the colour keys are cleared first).
+
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> indexed: array<u64>;
+@group(1) @binding(1) var<storage, read_write> keys: array<u64>;
+
+@compute @workgroup_size(8, 8)
+fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let pixel = id.y * frame.size.x + id.x;
+    let key = indexed[pixel];
+    if key == 0lu {
+        return;
+    }
+    let slot = ~u32(key & 0xfffffffflu);
+    let first = dispatch.first_slot * PAGE_SIZE;
+    if slot < first || slot - first >= arrayLength(&colors) {
+        return;
+    }
+    keys[pixel] = (key & 0xffffffff00000000lu) | u64(~load_color(slot - first));
+}

@@ -1,0 +1,39 @@
+// Reproject pass of progressive rendering (progressive-rendering paper §3.4, pass 1): draws the
+// points the previous frame showed, listed by slot in the shuffled buffer by the Prepare pass,
+// with this frame's camera, keyed like the Fill pass (~depth << 32 | ~slot, atomicMax: see
+// raster_min64.wgsl with INDEX_KEYS). The paper copies the points into its Reproject buffer; we
+// keep only their slots and fetch each point from the shuffled buffer by index.
+// One thread per list entry; one dispatch per point-buffer chunk, each drawing the entries whose
+// slot lies in its chunk. Every page of a shuffled buffer shares one origin: infos[0].
+
+override WG: u32 = 256u;
+override PAGE_SIZE: u32 = 4096u;
+
+@group(1) @binding(0) var<storage, read_write> framebuffer: array<atomic<u64>>;
+@group(1) @binding(1) var<storage, read_write> list: array<u32>;
+// Entries of `list` (the Prepare pass's counter).
+@group(1) @binding(2) var<storage, read_write> list_len: array<u32>;
+
+@compute @workgroup_size(WG)
+fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
+             @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = gid.x + gid.y * nwg.x * WG;
+    if k >= list_len[0] {
+        return;
+    }
+    let slot = list[k];
+    let first = dispatch.first_slot * PAGE_SIZE;
+    if slot < first || slot - first >= arrayLength(&colors) {
+        return;
+    }
+    let index = slot - first;
+    let hit = project(load_position(infos[0], index));
+    if hit.pixel == NO_PIXEL {
+        return;
+    }
+    // Classes hidden since the previous frame drop out here.
+    if class_hidden(load_color(index)) {
+        return;
+    }
+    atomicMax(&framebuffer[hit.pixel], (u64(~hit.depth_bits) << 32u) | u64(~slot));
+}

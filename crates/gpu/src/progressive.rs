@@ -1,0 +1,643 @@
+//! The per-frame passes of progressive rendering (progressive-rendering paper §3.4) over a
+//! shuffled point buffer:
+//! - **Reproject** draws the points the previous frame showed, with the new camera;
+//! - **Fill** draws the next S slots of the shuffled buffer, cycling through it;
+//! - **Prepare** lists the slot of every pixel's closest point for the next frame.
+//!
+//! Reproject and Fill key pixels by slot (`~depth << 32 | ~slot`, atomicMax) in an index
+//! framebuffer; a colour lookup turns those keys into the colour keys the existing 64-bit
+//! resolve and screen passes read. A frame is: clear → reproject (previous list) → fill (next S)
+//! → lookup → resolve and screen passes → prepare (list for the next frame). A still camera
+//! converges to exactly the closest-point image of all points after ⌈N / S⌉ frames; on equal
+//! depth the smaller slot wins (where the static path picks the smaller colour).
+
+use crate::cloud::write_frame;
+use crate::context::GpuContext;
+use crate::raster::{
+    grid, storage_group, storage_layout, PixelKind, RasterDispatch, RasterPipelines, RasterVariant,
+    WORKGROUP,
+};
+use crate::renderer::Renderer;
+use crate::screen::{ScreenPasses, ScreenSettings};
+use crate::shaders;
+use crate::shuffle::ShuffledBuffer;
+use crate::storage::{
+    check_page_size, point_group_layout, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame,
+    PointEncoding, PointStorage,
+};
+use crate::target::{map_read, RenderTarget};
+use crate::GpuError;
+use pointlet_core::{Aabb, Camera};
+
+/// The encoding of progressive clouds. Pages of a shuffled buffer hold points from all over
+/// the cloud, so per-page origins would buy no precision: every page takes the cloud's bounds
+/// minimum as origin, and points are f32 offsets from it (Compact8's coarse grid over the whole
+/// cloud would be far too coarse).
+pub const ENCODING: PointEncoding = PointEncoding::Full16;
+
+/// A shuffled point buffer in page slots, drawn by the progressive passes. Batches are
+/// scattered into [`shuffled`](Self::shuffled) with [`crate::shuffle::ShufflePass`], their
+/// positions encoded (Full16) relative to [`origin`](Self::origin).
+pub struct ProgressiveCloud {
+    points: u32,
+    page_size: u32,
+    origin: [f64; 3],
+    storage: PointStorage,
+    shuffled: ShuffledBuffer,
+    frame_uniform: wgpu::Buffer,
+    infos: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    entry_counts: wgpu::Buffer,
+    /// Indirect dispatch arguments of the Fill pass, three u32 per chunk.
+    fill_args: wgpu::Buffer,
+    /// Draw entries reserved per chunk in `entries`.
+    entry_stride: u32,
+}
+
+impl ProgressiveCloud {
+    /// Room for `points` points inside `bounds`, in pages of `page_size` slots.
+    pub fn new(
+        ctx: &GpuContext,
+        points: u32,
+        bounds: Aabb,
+        page_size: u32,
+    ) -> Result<Self, GpuError> {
+        check_page_size(page_size)?;
+        let finite = bounds.min.iter().chain(&bounds.max).all(|v| v.is_finite());
+        if points > 0 && (!finite || (0..3).any(|a| bounds.min[a] > bounds.max[a])) {
+            return Err(GpuError::InvalidInput(format!(
+                "a progressive cloud of {points} points needs finite bounds, got {bounds:?}"
+            )));
+        }
+        let origin = if points > 0 { bounds.min } else { [0.0; 3] };
+        let pages = points.div_ceil(page_size);
+        let chunks = PointStorage::chunk_count(ctx, ENCODING, page_size, pages);
+        let per_chunk = PointStorage::slots_per_chunk(ctx, ENCODING, page_size);
+        // A fill range and its wrapped rest are disjoint, so they share at most one page.
+        let entry_stride = per_chunk.min(pages.max(1)) + 1;
+        let device = &ctx.device;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.checked("allocating the progressive draw lists", || {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        let storage_usage = wgpu::BufferUsages::STORAGE;
+        let infos = buffer(
+            "progressive draw info",
+            std::mem::size_of::<GpuDrawInfo>() as u64,
+            storage_usage,
+        )?;
+        let entries = buffer(
+            "fill entries",
+            chunks as u64 * entry_stride as u64 * std::mem::size_of::<GpuDrawEntry>() as u64,
+            storage_usage,
+        )?;
+        let entry_counts = buffer("fill entry counts", chunks as u64 * 4, storage_usage)?;
+        let fill_args = buffer(
+            "fill dispatch",
+            chunks as u64 * 12,
+            wgpu::BufferUsages::INDIRECT,
+        )?;
+        let frame_uniform = buffer(
+            "progressive frame",
+            std::mem::size_of::<GpuFrame>() as u64,
+            wgpu::BufferUsages::UNIFORM,
+        )?;
+        let list_offsets: Vec<u32> = (0..chunks).map(|c| c * entry_stride).collect();
+        let storage = PointStorage::new(
+            ctx,
+            ENCODING,
+            page_size,
+            pages,
+            &DrawBuffers {
+                frame: &frame_uniform,
+                infos: &infos,
+                entries: &entries,
+                entry_counts: &entry_counts,
+                list_offsets: &list_offsets,
+            },
+        )?;
+        let shuffled = ShuffledBuffer::in_storage(&storage, points)?;
+        Ok(Self {
+            points,
+            page_size,
+            origin,
+            storage,
+            shuffled,
+            frame_uniform,
+            infos,
+            entries,
+            entry_counts,
+            fill_args,
+            entry_stride,
+        })
+    }
+
+    /// Slots of the shuffled buffer (N).
+    pub fn points(&self) -> u32 {
+        self.points
+    }
+
+    pub fn page_size(&self) -> u32 {
+        self.page_size
+    }
+
+    /// The origin every page shares: positions are encoded relative to it.
+    pub fn origin(&self) -> [f64; 3] {
+        self.origin
+    }
+
+    /// The buffer to scatter batches into.
+    pub fn shuffled(&self) -> &ShuffledBuffer {
+        &self.shuffled
+    }
+
+    /// Writes the camera-relative origin and the frame uniform.
+    fn prepare(
+        &self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        size: (u32, u32),
+        hidden_classes: &[u32; 8],
+    ) {
+        let info = GpuDrawInfo {
+            origin: [0, 1, 2].map(|a| (self.origin[a] - camera.eye[a]) as f32),
+            ..Default::default()
+        };
+        ctx.queue
+            .write_buffer(&self.infos, 0, bytemuck::bytes_of(&info));
+        write_frame(ctx, &self.frame_uniform, camera, size, hidden_classes);
+    }
+
+    /// Writes the Fill pass's draw entries for slots `first..first + count` (wrapping at N):
+    /// one entry per page touched, listed under the page's chunk.
+    fn write_fill(&self, ctx: &GpuContext, first: u32, count: u32) {
+        let chunks = self.storage.chunks.len();
+        let mut lists: Vec<Vec<GpuDrawEntry>> = vec![Vec::new(); chunks];
+        let ps = self.page_size as u64;
+        for (a, b) in fill_ranges(self.points, first, count) {
+            for page in a / ps..b.div_ceil(ps) {
+                let (lo, hi) = (a.max(page * ps), b.min((page + 1) * ps));
+                let chunk = (page / self.storage.slots_per_chunk as u64) as usize;
+                lists[chunk].push(GpuDrawEntry {
+                    slot: page as u32,
+                    info: 0,
+                    first: (lo - page * ps) as u32,
+                    count: (hi - lo) as u32,
+                });
+            }
+        }
+        let entry_bytes = std::mem::size_of::<GpuDrawEntry>() as u64;
+        let mut counts = Vec::with_capacity(chunks);
+        let mut args = Vec::with_capacity(chunks * 3);
+        for (c, list) in lists.iter().enumerate() {
+            if !list.is_empty() {
+                let offset = c as u64 * self.entry_stride as u64 * entry_bytes;
+                ctx.queue
+                    .write_buffer(&self.entries, offset, bytemuck::cast_slice(list));
+            }
+            let [x, y] = grid(list.len() as u32);
+            counts.push(list.len() as u32);
+            args.extend_from_slice(&[x, y, 1]);
+        }
+        ctx.queue
+            .write_buffer(&self.entry_counts, 0, bytemuck::cast_slice(&counts));
+        ctx.queue
+            .write_buffer(&self.fill_args, 0, bytemuck::cast_slice(&args));
+    }
+}
+
+/// The slot ranges of a fill of `count` slots from `first` in a buffer of `points` slots: the
+/// range up to the end and the wrapped rest (empty ranges are `(0, 0)`); at most all slots.
+pub fn fill_ranges(points: u32, first: u32, count: u32) -> [(u64, u64); 2] {
+    let n = points as u64;
+    if n == 0 {
+        return [(0, 0); 2];
+    }
+    let start = first as u64 % n;
+    let end = start + (count as u64).min(n);
+    [(start, end.min(n)), (0, end.saturating_sub(n))]
+}
+
+/// What a progressive view keeps between frames, for one cloud and one image size: the index
+/// framebuffer, the slots the last frame showed (Prepare's list) and where the next fill starts.
+pub struct ProgressiveState {
+    width: u32,
+    height: u32,
+    /// `~depth << 32 | ~slot` per pixel, 0 = empty.
+    indexed: wgpu::Buffer,
+    list: wgpu::Buffer,
+    /// The list's length in its first u32.
+    list_len: wgpu::Buffer,
+    /// The image size, for the Prepare pass.
+    size: wgpu::Buffer,
+    has_list: bool,
+    next_fill: u32,
+}
+
+impl ProgressiveState {
+    /// State for frames drawn into targets of `target`'s size.
+    pub fn new(ctx: &GpuContext, target: &RenderTarget) -> Result<Self, GpuError> {
+        let (width, height) = (target.width, target.height);
+        let pixels = width as u64 * height as u64;
+        let device = &ctx.device;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.checked("allocating the progressive framebuffer", || {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let size = buffer("progressive size", 16, wgpu::BufferUsages::UNIFORM)?;
+        ctx.queue
+            .write_buffer(&size, 0, bytemuck::cast_slice(&[width, height, 0, 0]));
+        Ok(Self {
+            width,
+            height,
+            indexed: buffer("index keys", pixels * 8, storage)?,
+            list: buffer("reproject list", pixels * 4, storage)?,
+            list_len: buffer("reproject list length", 16, storage)?,
+            size,
+            has_list: false,
+            next_fill: 0,
+        })
+    }
+
+    /// Forgets the last frame and fills from slot 0 again (for another cloud).
+    pub fn restart(&mut self) {
+        self.has_list = false;
+        self.next_fill = 0;
+    }
+
+    /// The slot the next Fill pass starts at.
+    pub fn next_fill(&self) -> u32 {
+        self.next_fill
+    }
+
+    /// The slots the last frame's Prepare pass listed (waits for the GPU); empty before the
+    /// first frame.
+    pub fn read_list(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+        if !self.has_list {
+            return Ok(Vec::new());
+        }
+        let len = read_words(ctx, &self.list_len, 4)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+        // Prepare appends at most one slot per pixel; a longer count is a GPU fault.
+        let capacity = self.width as u64 * self.height as u64;
+        if len as u64 > capacity {
+            return Err(GpuError::Device(format!(
+                "the reproject list claims {len} entries for {capacity} pixels"
+            )));
+        }
+        read_words(ctx, &self.list, len as u64 * 4)
+    }
+}
+
+/// The first `bytes` bytes of a COPY_SRC buffer, as u32 words.
+fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u32>, GpuError> {
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
+    let readback = ctx.checked("reading the reproject list", || {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("reproject list readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    })?;
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
+    ctx.queue.submit([enc.finish()]);
+    Ok(bytemuck::pod_collect_to_vec(&map_read(ctx, &readback)?))
+}
+
+/// A compute pipeline over the point bind group (group 0) of the progressive encoding and
+/// `group1_len` read-write storage buffers (group 1).
+fn point_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    body: &str,
+    entry: &str,
+    group1_len: usize,
+    constants: &[(&str, f64)],
+) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let group0 = point_group_layout(device, ENCODING);
+    let group1 = storage_layout(device, group1_len, false);
+    let module = shaders::module(device, label, &shaders::point_pass(ENCODING, body));
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(&group0), Some(&group1)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    });
+    (pipeline, group1)
+}
+
+/// Pass 1: the previous frame's points (progressive_reproject.wgsl).
+struct ReprojectPass {
+    pipeline: wgpu::ComputePipeline,
+    group1: wgpu::BindGroupLayout,
+}
+
+impl ReprojectPass {
+    fn new(device: &wgpu::Device, page_size: u32) -> Self {
+        let (pipeline, group1) = point_pipeline(
+            device,
+            "reproject",
+            shaders::PROGRESSIVE_REPROJECT,
+            "reproject",
+            3,
+            &[("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)],
+        );
+        Self { pipeline, group1 }
+    }
+
+    fn record(
+        &self,
+        device: &wgpu::Device,
+        enc: &mut wgpu::CommandEncoder,
+        cloud: &ProgressiveCloud,
+        state: &ProgressiveState,
+    ) {
+        let group1 = storage_group(
+            device,
+            "reproject",
+            &self.group1,
+            &[&state.indexed, &state.list, &state.list_len],
+        );
+        // One thread per possible entry: the list holds at most one slot per pixel.
+        let pixels = state.width as u64 * state.height as u64;
+        let [x, y] = grid(pixels.div_ceil(WORKGROUP as u64) as u32);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("reproject"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &group1, &[]);
+        for chunk in &cloud.storage.chunks {
+            pass.set_bind_group(0, &chunk.bind_group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+}
+
+/// Pass 2: the next S slots, drawn by a closest-point variant keyed by slot.
+struct FillPass {
+    pipelines: RasterPipelines,
+}
+
+impl FillPass {
+    fn new(device: &wgpu::Device, variant: RasterVariant, page_size: u32) -> Self {
+        Self {
+            pipelines: RasterPipelines::indexed(device, variant, ENCODING, page_size),
+        }
+    }
+
+    fn record(
+        &self,
+        device: &wgpu::Device,
+        enc: &mut wgpu::CommandEncoder,
+        cloud: &ProgressiveCloud,
+        state: &ProgressiveState,
+    ) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("fill"),
+            timestamp_writes: None,
+        });
+        self.pipelines.record(
+            device,
+            &mut pass,
+            &cloud.storage,
+            RasterDispatch::Indirect(&cloud.fill_args),
+            &[&state.indexed],
+        );
+    }
+}
+
+/// Index keys → colour keys for the resolve (progressive_lookup.wgsl).
+struct LookupPass {
+    pipeline: wgpu::ComputePipeline,
+    group1: wgpu::BindGroupLayout,
+}
+
+impl LookupPass {
+    fn new(device: &wgpu::Device, page_size: u32) -> Self {
+        let (pipeline, group1) = point_pipeline(
+            device,
+            "colour lookup",
+            shaders::PROGRESSIVE_LOOKUP,
+            "lookup",
+            2,
+            &[("PAGE_SIZE", page_size as f64)],
+        );
+        Self { pipeline, group1 }
+    }
+
+    fn record(
+        &self,
+        device: &wgpu::Device,
+        enc: &mut wgpu::CommandEncoder,
+        cloud: &ProgressiveCloud,
+        state: &ProgressiveState,
+        target: &RenderTarget,
+    ) {
+        let keys = &target.pixels.key64;
+        enc.clear_buffer(keys, 0, None);
+        let group1 = storage_group(
+            device,
+            "colour lookup",
+            &self.group1,
+            &[&state.indexed, keys],
+        );
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("colour lookup"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &group1, &[]);
+        for chunk in &cloud.storage.chunks {
+            pass.set_bind_group(0, &chunk.bind_group, &[]);
+            pass.dispatch_workgroups(state.width.div_ceil(8), state.height.div_ceil(8), 1);
+        }
+    }
+}
+
+/// Pass 3: the list of the slots shown, for the next frame (progressive_prepare.wgsl).
+struct PreparePass {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl PreparePass {
+    fn new(device: &wgpu::Device) -> Self {
+        let module = shaders::module(device, "prepare", shaders::PROGRESSIVE_PREPARE);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("prepare"),
+            layout: None,
+            module: &module,
+            entry_point: Some("prepare"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Self { pipeline }
+    }
+
+    fn record(
+        &self,
+        device: &wgpu::Device,
+        enc: &mut wgpu::CommandEncoder,
+        state: &ProgressiveState,
+    ) {
+        enc.clear_buffer(&state.list_len, 0, None);
+        let group = storage_group(
+            device,
+            "prepare",
+            &self.pipeline.get_bind_group_layout(0),
+            &[&state.size, &state.indexed, &state.list, &state.list_len],
+        );
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("prepare"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(state.width.div_ceil(8), state.height.div_ceil(8), 1);
+    }
+}
+
+/// One progressive frame's choices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProgressiveSettings {
+    /// S: slots the Fill pass draws this frame (at most all of them).
+    pub budget: u32,
+    /// Draw the previous frame's points first; off, every frame starts from an empty image.
+    pub reproject: bool,
+    pub screen: ScreenSettings,
+    /// One bit per ASPRS class, as [`crate::RenderSettings::hidden_classes`].
+    pub hidden_classes: [u32; 8],
+}
+
+/// The progressive passes of one closest-point variant and page size, and the screen passes
+/// they feed.
+pub struct ProgressiveRenderer {
+    variant: RasterVariant,
+    page_size: u32,
+    reproject: ReprojectPass,
+    fill: FillPass,
+    lookup: LookupPass,
+    prepare: PreparePass,
+    screen: ScreenPasses,
+}
+
+impl ProgressiveRenderer {
+    pub fn new(ctx: &GpuContext, variant: RasterVariant, page_size: u32) -> Result<Self, GpuError> {
+        if !variant.accumulates() {
+            return Err(GpuError::Unsupported {
+                what: variant.name().to_string(),
+                why: "progressive rendering keeps one closest point per pixel across frames: \
+                      use atomic-min, early-z, reduce, reduce-early-z or dedup"
+                    .into(),
+                adapter: ctx.describe(),
+            });
+        }
+        if let Some(why) = variant.unsupported_reason(&ctx.caps) {
+            return Err(GpuError::Unsupported {
+                what: variant.name().to_string(),
+                why: why.to_string(),
+                adapter: ctx.describe(),
+            });
+        }
+        check_page_size(page_size)?;
+        let device = &ctx.device;
+        ctx.checked("building the progressive passes", || Self {
+            variant,
+            page_size,
+            reproject: ReprojectPass::new(device, page_size),
+            fill: FillPass::new(device, variant, page_size),
+            lookup: LookupPass::new(device, page_size),
+            prepare: PreparePass::new(device),
+            screen: ScreenPasses::new(device),
+        })
+    }
+
+    /// Records and submits one frame of `cloud` seen by `camera` into `target`, advancing
+    /// `state` (its list and fill position).
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        cloud: &ProgressiveCloud,
+        state: &mut ProgressiveState,
+        camera: &Camera,
+        settings: &ProgressiveSettings,
+        target: &mut RenderTarget,
+    ) -> Result<(), GpuError> {
+        Renderer::check(ctx, self.variant, camera)?;
+        if cloud.page_size != self.page_size {
+            return Err(GpuError::InvalidInput(format!(
+                "a cloud of {}-point pages drawn by passes built for {}-point pages",
+                cloud.page_size, self.page_size
+            )));
+        }
+        if (state.width, state.height) != (target.width, target.height) {
+            return Err(GpuError::InvalidInput(format!(
+                "progressive state for {}×{} used with a {}×{} image",
+                state.width, state.height, target.width, target.height
+            )));
+        }
+        let budget = settings.budget.min(cloud.points);
+        cloud.prepare(
+            ctx,
+            camera,
+            (target.width, target.height),
+            &settings.hidden_classes,
+        );
+        cloud.write_fill(ctx, state.next_fill, budget);
+        self.screen
+            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
+        let device = &ctx.device;
+        ctx.checked("rendering a progressive frame", || {
+            let mut enc = device.create_command_encoder(&Default::default());
+            enc.clear_buffer(&state.indexed, 0, None);
+            if settings.reproject && state.has_list {
+                self.reproject.record(device, &mut enc, cloud, state);
+            }
+            self.fill.record(device, &mut enc, cloud, state);
+            self.lookup.record(device, &mut enc, cloud, state, target);
+            self.screen.record(
+                device,
+                &mut enc,
+                target,
+                PixelKind::Key64,
+                &settings.screen,
+                None,
+            );
+            self.prepare.record(device, &mut enc, state);
+            ctx.queue.submit([enc.finish()]);
+        })?;
+        state.has_list = true;
+        state.next_fill =
+            ((state.next_fill as u64 + budget as u64) % cloud.points.max(1) as u64) as u32;
+        Ok(())
+    }
+}
