@@ -4,6 +4,7 @@
 //! and hands the uploads to the render thread, and the GPU draws what is resident. Only changes
 //! cost work; the render thread waits neither for the disk nor for the residency step.
 
+pub mod progressive;
 mod residency;
 mod scene;
 mod source;

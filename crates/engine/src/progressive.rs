@@ -1,0 +1,531 @@
+//! Loading a point file while it is drawn (progressive-rendering paper §3.2, Fig. 3): a load
+//! thread decodes the file in batches (the parts of LAS/LAZ files in parallel on rayon, handed
+//! over in file order; other files front to back) and encodes each batch for the GPU; every
+//! frame the render thread takes the batches that are ready and scatters them into the shuffled
+//! buffer at their points' global indices. Encoded batches wait in a bounded queue, so memory
+//! stays bounded whatever the file's size.
+//!
+//! The caller sizes the [`ShuffledBuffer`] from the header's point count ([`ProgressiveLoad::total`]);
+//! a file that claims more points than the GPU's memory holds is not handled here.
+
+use crate::EngineError;
+use pointlet_core::color::{
+    default_color, point_color, sample_parts, ColorMode, ColorScale, DefaultColor,
+};
+use pointlet_core::{PartedSource, PointBatch, PointLayout};
+use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer};
+use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
+use pointlet_io::{PointReader, ReadOptions};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
+use std::sync::{Arc, OnceLock};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Points per batch: the paper's 500 k.
+pub const BATCH_POINTS: usize = 500_000;
+/// Encoded batches that may wait for the render thread.
+pub const QUEUE_BATCHES: usize = 4;
+
+/// Words of a Full16 position.
+const WORDS: usize = 3;
+/// Full16 ignores the compact quantization step.
+const NO_STEP: [f64; 3] = [1.0; 3];
+
+/// How to load.
+#[derive(Clone, Debug)]
+pub struct LoadConfig {
+    /// The colouring asked for; `None` picks the data's default from a sample.
+    pub color: Option<ColorMode>,
+    /// Points per batch (LAS/LAZ batches are whole parts: at least one part, else at most this).
+    pub batch_points: usize,
+    /// Encoded batches that may wait in the queue (at least 1); the load thread holds one more.
+    pub queue_batches: usize,
+    /// What text files do not say for themselves.
+    pub read: ReadOptions,
+}
+
+impl Default for LoadConfig {
+    fn default() -> Self {
+        Self {
+            color: None,
+            batch_points: BATCH_POINTS,
+            queue_batches: QUEUE_BATCHES,
+            read: ReadOptions::default(),
+        }
+    }
+}
+
+/// How the points are coloured: the scale, and the data's default with its reason when no
+/// colouring was asked for (for a `note:` line).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoadColor {
+    pub scale: ColorScale,
+    pub default: Option<DefaultColor>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoadState {
+    Loading,
+    /// Every point of the file is in the shuffled buffer.
+    Loaded,
+    /// Reading ended with an error (reported once by [`ProgressiveLoad::upload_ready`]); the
+    /// points uploaded before it stay in the buffer.
+    Failed,
+}
+
+/// Where loading stands.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoadProgress {
+    /// Points the header claims: the shuffled buffer's slots.
+    pub total: u64,
+    /// Points decoded and encoded by the load thread.
+    pub loaded: u64,
+    /// Points scattered into the shuffled buffer.
+    pub uploaded: u64,
+    /// Size of the file.
+    pub file_bytes: u64,
+    /// Since the load started, until it ended.
+    pub elapsed: Duration,
+    pub state: LoadState,
+}
+
+impl LoadProgress {
+    pub fn is_finished(&self) -> bool {
+        self.state != LoadState::Loading
+    }
+
+    /// Points uploaded per second.
+    pub fn points_per_s(&self) -> f64 {
+        self.uploaded as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+
+    /// MB (10⁶ bytes) of the file per second, counting the file's share of the points uploaded
+    /// (compressed bytes for LAZ).
+    pub fn mb_per_s(&self) -> f64 {
+        let share = self.uploaded as f64 / self.total.max(1) as f64;
+        self.file_bytes as f64 * share / 1e6 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+/// What one [`ProgressiveLoad::upload_ready`] call did.
+#[derive(Debug, Default)]
+pub struct Uploaded {
+    pub batches: usize,
+    pub points: u64,
+    /// The reader's error that ended loading, in the one call that received it.
+    pub failure: Option<EngineError>,
+}
+
+/// Points `first..first + colors.len()` of the file, encoded.
+struct EncodedPoints {
+    first: u64,
+    positions: Vec<u32>,
+    colors: Vec<u32>,
+}
+
+enum Message {
+    Batch(EncodedPoints),
+    Failed(String),
+    Done,
+}
+
+/// Why the load thread stopped early.
+enum Stop {
+    /// The load was dropped: nobody takes batches any more.
+    Closed,
+    Failed(String),
+}
+
+/// What the load thread and the render thread both see.
+#[derive(Default)]
+struct Shared {
+    loaded: AtomicU64,
+    color: OnceLock<LoadColor>,
+}
+
+/// What the load thread needs besides the reader.
+struct Job {
+    path: PathBuf,
+    total: u64,
+    origin: [f64; 3],
+    z_range: [f64; 2],
+    layout: PointLayout,
+    asked: Option<ColorMode>,
+    batch_points: usize,
+    shared: Arc<Shared>,
+    queue: SyncSender<Message>,
+}
+
+/// A point file loading into a shuffled buffer; see the module documentation. Dropping it
+/// stops the load thread (after the batch it is decoding).
+pub struct ProgressiveLoad {
+    path: PathBuf,
+    total: u64,
+    origin: [f64; 3],
+    file_bytes: u64,
+    shared: Arc<Shared>,
+    queue: Option<Receiver<Message>>,
+    thread: Option<JoinHandle<()>>,
+    uploaded: u64,
+    started: Instant,
+    ended: Option<Instant>,
+    state: LoadState,
+}
+
+impl ProgressiveLoad {
+    /// Opens `path` and starts its load thread. Errors here (a missing file, a bad header, a
+    /// colouring the file cannot give) mean nothing was loaded.
+    pub fn start(path: &Path, config: LoadConfig) -> Result<Self, EngineError> {
+        let reader = pointlet_io::open_with(path, &config.read)
+            .map_err(|e| EngineError::Read(e.to_string()))?;
+        let meta = reader.meta();
+        if let Some(mode) = config.color.filter(|m| !m.available_in(&meta.layout)) {
+            return Err(EngineError::Config(format!(
+                "{} has no {} attribute to colour by",
+                path.display(),
+                mode.name()
+            )));
+        }
+        let total = meta.point_count;
+        if total > u64::from(u32::MAX) {
+            return Err(EngineError::Config(format!(
+                "{}: {total} points exceed the {} slots of a shuffled buffer",
+                path.display(),
+                u32::MAX
+            )));
+        }
+        let (origin, z_range) = if meta.bounds.is_empty() {
+            ([0.0; 3], [0.0, 1.0])
+        } else {
+            (meta.bounds.min, [meta.bounds.min[2], meta.bounds.max[2]])
+        };
+        let file_bytes = std::fs::metadata(path)
+            .map_err(|e| EngineError::Read(format!("{}: {e}", path.display())))?
+            .len();
+        let shared = Arc::new(Shared::default());
+        let (tx, rx) = sync_channel(config.queue_batches.max(1));
+        let job = Job {
+            path: path.to_path_buf(),
+            total,
+            origin,
+            z_range,
+            layout: meta.layout,
+            asked: config.color,
+            batch_points: config.batch_points.max(1),
+            shared: Arc::clone(&shared),
+            queue: tx,
+        };
+        let thread = std::thread::Builder::new()
+            .name("point-load".into())
+            .spawn(move || load(reader, job))
+            .map_err(|e| EngineError::Read(format!("starting the load thread: {e}")))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            total,
+            origin,
+            file_bytes,
+            shared,
+            queue: Some(rx),
+            thread: Some(thread),
+            uploaded: 0,
+            started: Instant::now(),
+            ended: None,
+            state: LoadState::Loading,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Points the header claims: the slot count of the shuffled buffer to scatter into.
+    pub fn total(&self) -> u64 {
+        self.total
+    }
+
+    /// Positions are relative to this point (the header bounds' minimum).
+    pub fn origin(&self) -> [f64; 3] {
+        self.origin
+    }
+
+    /// The colouring, once the load thread has chosen it from its sample.
+    pub fn color(&self) -> Option<LoadColor> {
+        self.shared.color.get().copied()
+    }
+
+    pub fn progress(&self) -> LoadProgress {
+        LoadProgress {
+            total: self.total,
+            loaded: self.shared.loaded.load(Ordering::Relaxed),
+            uploaded: self.uploaded,
+            file_bytes: self.file_bytes,
+            elapsed: self.ended.unwrap_or_else(Instant::now) - self.started,
+            state: self.state,
+        }
+    }
+
+    /// Scatters up to `max_batches` batches that are ready into `dst` (a Full16 buffer of
+    /// [`total`](Self::total) slots) without waiting for the load thread. An `Err` is a GPU or
+    /// configuration error; the reader's error comes back once, in [`Uploaded::failure`].
+    pub fn upload_ready(
+        &mut self,
+        ctx: &GpuContext,
+        pass: &mut ShufflePass,
+        dst: &ShuffledBuffer,
+        max_batches: usize,
+    ) -> Result<Uploaded, EngineError> {
+        if dst.encoding() != PointEncoding::Full16 || dst.permutation().len() != self.total {
+            return Err(EngineError::Config(format!(
+                "{} loads into a full16 shuffled buffer of {} slots, not a {} one of {}",
+                self.path.display(),
+                self.total,
+                dst.encoding().name(),
+                dst.permutation().len()
+            )));
+        }
+        let mut up = Uploaded::default();
+        while up.batches < max_batches {
+            let Some(queue) = &self.queue else { break };
+            match queue.try_recv() {
+                Ok(Message::Batch(b)) => {
+                    let count = b.colors.len() as u64;
+                    // The load thread keeps every batch within the header's count ≤ u32::MAX.
+                    let first = u32::try_from(b.first).map_err(|_| {
+                        EngineError::Config(format!("point {} lies beyond u32 slots", b.first))
+                    })?;
+                    let batch = EncodedBatch {
+                        positions: &b.positions,
+                        fine: &[],
+                        colors: &b.colors,
+                    };
+                    pass.scatter(ctx, dst, first, batch)?;
+                    self.uploaded += count;
+                    up.batches += 1;
+                    up.points += count;
+                }
+                Ok(Message::Done) => self.end(LoadState::Loaded),
+                Ok(Message::Failed(message)) => {
+                    self.end(LoadState::Failed);
+                    up.failure = Some(EngineError::Read(message));
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => {
+                    self.end(LoadState::Failed);
+                    up.failure = Some(EngineError::Read(format!(
+                        "{}: the load thread stopped before the end of the file",
+                        self.path.display()
+                    )));
+                }
+            }
+        }
+        Ok(up)
+    }
+
+    fn end(&mut self, state: LoadState) {
+        self.state = state;
+        self.ended = Some(Instant::now());
+        self.stop_thread();
+    }
+
+    fn stop_thread(&mut self) {
+        // Without its queue the load thread's next send fails and it returns.
+        self.queue = None;
+        if let Some(thread) = self.thread.take() {
+            // A panic there was already reported as a disconnected queue.
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for ProgressiveLoad {
+    fn drop(&mut self) {
+        self.stop_thread();
+    }
+}
+
+/// The load thread: every batch, then `Done`, or the error that ended reading.
+fn load(mut reader: Box<dyn PointReader>, job: Job) {
+    let end = match reader.parted() {
+        Some(parts) => load_parts(parts, &job),
+        None => load_sequential(reader.as_mut(), &job),
+    };
+    let last = match end {
+        Ok(()) => Message::Done,
+        Err(Stop::Failed(message)) => Message::Failed(message),
+        Err(Stop::Closed) => return,
+    };
+    // A closed queue here means the load was dropped: nobody is left to tell.
+    let _ = job.queue.send(last);
+}
+
+/// Parts grouped into batches in file order, each group decoded in parallel.
+fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
+    let sizes = parts.part_sizes();
+    let color = *job.shared.color.get_or_init(|| {
+        // A part that fails is left out of the sample: loading reports it when it gets there.
+        let Ok(sample) = sample_parts(sizes.len(), |i| {
+            let mut b = PointBatch::default();
+            let ok = parts.decode_part(i, &mut b, &mut Vec::new()).is_ok();
+            Ok::<_, std::convert::Infallible>(if ok { b } else { PointBatch::default() })
+        });
+        choose_color(job, &sample.iter().collect::<Vec<_>>())
+    });
+    let (mut part, mut first) = (0, 0u64);
+    while part < sizes.len() {
+        let mut end = part + 1;
+        let mut points = sizes[part];
+        while end < sizes.len() && points + sizes[end] <= job.batch_points as u64 {
+            points += sizes[end];
+            end += 1;
+        }
+        check_fits(job, first, points)?;
+        let mut out = EncodedPoints {
+            first,
+            positions: vec![0; points as usize * WORDS],
+            colors: vec![0; points as usize],
+        };
+        // Each part's slices of the batch, so that threads encode in place.
+        let mut jobs = Vec::with_capacity(end - part);
+        let (mut pos, mut col) = (&mut out.positions[..], &mut out.colors[..]);
+        for (i, &size) in sizes.iter().enumerate().take(end).skip(part) {
+            let (p, rest_p) = std::mem::take(&mut pos).split_at_mut(size as usize * WORDS);
+            let (c, rest_c) = std::mem::take(&mut col).split_at_mut(size as usize);
+            jobs.push((i, p, c));
+            (pos, col) = (rest_p, rest_c);
+        }
+        let results: Vec<Result<(), String>> = jobs
+            .into_par_iter()
+            .map_init(
+                || (PointBatch::default(), Vec::new()),
+                |(batch, scratch), (i, p, c)| {
+                    parts
+                        .decode_part(i, batch, scratch)
+                        .map_err(|e| e.to_string())?;
+                    if batch.len() != c.len() {
+                        return Err(format!(
+                            "{}: part {i} decoded to {} points, its size is {}",
+                            job.path.display(),
+                            batch.len(),
+                            c.len()
+                        ));
+                    }
+                    encode_into(batch, job.origin, &color.scale, p, c);
+                    Ok(())
+                },
+            )
+            .collect();
+        // The parts before the first that failed are good: they go to the GPU before the error.
+        let good = results.iter().take_while(|r| r.is_ok()).count();
+        let kept: u64 = sizes[part..part + good].iter().sum();
+        out.positions.truncate(kept as usize * WORDS);
+        out.colors.truncate(kept as usize);
+        send(job, out)?;
+        if let Some(Err(message)) = results.into_iter().nth(good) {
+            return Err(Stop::Failed(message));
+        }
+        first += points;
+        part = end;
+    }
+    Ok(())
+}
+
+/// Batches read front to back; the first one chooses the colouring, as `render` does.
+fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> {
+    let mut first = 0u64;
+    loop {
+        let batch = match reader.read_batch(job.batch_points) {
+            Ok(Some(b)) => b,
+            Ok(None) if first == job.total => return Ok(()),
+            Ok(None) => {
+                return Err(Stop::Failed(format!(
+                    "{}: the file ends after {first} of the {} points its header claims",
+                    job.path.display(),
+                    job.total
+                )))
+            }
+            Err(e) => return Err(Stop::Failed(e.to_string())),
+        };
+        if batch.is_empty() {
+            continue;
+        }
+        let color = *job
+            .shared
+            .color
+            .get_or_init(|| choose_color(job, &[&batch]));
+        let n = batch.len();
+        check_fits(job, first, n as u64)?;
+        let mut out = EncodedPoints {
+            first,
+            positions: vec![0; n * WORDS],
+            colors: vec![0; n],
+        };
+        encode_into(
+            &batch,
+            job.origin,
+            &color.scale,
+            &mut out.positions,
+            &mut out.colors,
+        );
+        send(job, out)?;
+        first += n as u64;
+    }
+}
+
+/// The colouring asked for, or the data's default decided on `sample`.
+fn choose_color(job: &Job, sample: &[&PointBatch]) -> LoadColor {
+    let default = match job.asked {
+        Some(_) => None,
+        None => Some(default_color(&job.layout, sample)),
+    };
+    let mode = job
+        .asked
+        .or(default.map(|d| d.mode))
+        .unwrap_or(ColorMode::Elevation);
+    LoadColor {
+        scale: ColorScale::fit(mode, sample, job.z_range),
+        default,
+    }
+}
+
+/// Points `first..first + n` must lie within the header's count (the buffer's slots).
+fn check_fits(job: &Job, first: u64, n: u64) -> Result<(), Stop> {
+    if first + n > job.total {
+        return Err(Stop::Failed(format!(
+            "{}: the file holds more points than the {} its header claims",
+            job.path.display(),
+            job.total
+        )));
+    }
+    Ok(())
+}
+
+/// Full16 position words relative to `origin` and RGBA8 colours of every point of `batch`.
+fn encode_into(
+    batch: &PointBatch,
+    origin: [f64; 3],
+    scale: &ColorScale,
+    positions: &mut [u32],
+    colors: &mut [u32],
+) {
+    let slots = positions.chunks_exact_mut(WORDS).zip(colors.iter_mut());
+    for (i, ((p, c), xyz)) in slots.zip(&batch.xyz).enumerate() {
+        p.copy_from_slice(&encode_point(*xyz, origin, NO_STEP, PointEncoding::Full16));
+        *c = point_color(batch, i, scale);
+    }
+}
+
+/// Hands a batch to the render thread (waiting while the queue is full).
+fn send(job: &Job, batch: EncodedPoints) -> Result<(), Stop> {
+    if batch.colors.is_empty() {
+        return Ok(());
+    }
+    job.shared
+        .loaded
+        .fetch_add(batch.colors.len() as u64, Ordering::Relaxed);
+    job.queue
+        .send(Message::Batch(batch))
+        .map_err(|_| Stop::Closed)
+}
