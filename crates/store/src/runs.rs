@@ -142,9 +142,10 @@ pub(crate) struct Run {
 
 type SpillResult = Result<(RunFile, Run), StoreError>;
 
-/// Runs sorted and written at once: each writes its own file, and the kernel writes separate
-/// files in parallel where it serializes writes to one file.
-pub(crate) const SPILLERS: usize = 3;
+/// Runs sorted and written at once, each to its own file. Three at once (smaller runs, files
+/// written in parallel) measured no faster than one on either machine (docs/BENCHMARKS.md),
+/// so one run spills while the next fills.
+pub(crate) const SPILLERS: usize = 1;
 
 /// A run to spill, and where to send the result.
 type SpillJob = (PathBuf, Run, SyncSender<SpillResult>);
