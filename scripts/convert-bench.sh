@@ -13,6 +13,10 @@
 #   ROUNDS    rounds of each timed conversion (default 2; the ratios use the best)
 #   POTREE    PotreeConverter's run.sh (the build in the shared tools folder beside the
 #             repository: potree-converter/run.sh); unset, the Potree runs are skipped
+# On the GPU machine (no Rust, no network, no /usr/bin/time): copy the release binary and
+# PotreeConverter's folder into .dev/ (ignored by git, named in `carry`), with the Debian
+# `time` package's .deb (`apt-get download time`), and start the command with
+# `[ -x /usr/bin/time ] || dpkg -x .dev/time_*.deb /;` (docs/BENCHMARKS.md, issue 15).
 set -euo pipefail
 [ $# -ge 1 ] || {
   echo "usage: $0 OUT_DIR [WORK_DIR]" >&2
