@@ -139,8 +139,13 @@ pub fn sample_parts<E>(
     pointlets: usize,
     read: impl FnMut(usize) -> Result<PointBatch, E>,
 ) -> Result<Vec<PointBatch>, E> {
+    sample_indices(pointlets).into_iter().map(read).collect()
+}
+
+/// The parts [`sample_parts`] reads, for callers that read them in parallel.
+pub fn sample_indices(pointlets: usize) -> Vec<usize> {
     let step = pointlets.div_ceil(DEFAULT_COLOR_SAMPLES).max(1);
-    (0..pointlets).step_by(step).map(read).collect()
+    (0..pointlets).step_by(step).collect()
 }
 
 /// How values map to colours: the range (and gamma) of scalar attributes, and whether RGB is

@@ -10,7 +10,7 @@
 
 use crate::EngineError;
 use pointlet_core::color::{
-    default_color, point_color, sample_parts, ColorMode, ColorScale, DefaultColor,
+    default_color, point_color, sample_indices, ColorMode, ColorScale, DefaultColor,
 };
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer};
@@ -365,12 +365,18 @@ fn load(mut reader: Box<dyn PointReader>, job: Job) {
 fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
     let sizes = parts.part_sizes();
     let color = *job.shared.color.get_or_init(|| {
-        // A part that fails is left out of the sample: loading reports it when it gets there.
-        let Ok(sample) = sample_parts(sizes.len(), |i| {
-            let mut b = PointBatch::default();
-            let ok = parts.decode_part(i, &mut b, &mut Vec::new()).is_ok();
-            Ok::<_, std::convert::Infallible>(if ok { b } else { PointBatch::default() })
-        });
+        // Decoded in parallel: the sample delays the first batch. A part that fails is left
+        // out of it: loading reports the failure when it gets there.
+        let sample: Vec<PointBatch> = sample_indices(sizes.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut b = PointBatch::default();
+                match parts.decode_part(i, &mut b, &mut Vec::new()) {
+                    Ok(()) => b,
+                    Err(_) => PointBatch::default(),
+                }
+            })
+            .collect();
         choose_color(job, &sample.iter().collect::<Vec<_>>())
     });
     let (mut part, mut first) = (0, 0u64);
