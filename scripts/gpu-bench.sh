@@ -8,6 +8,8 @@
 #   quality PSNR of LoD images against full detail, 200 M points (issue 4)
 #   threads residency threads × loaders A/B on the 1 G-point store (run store first)
 #   diag    a quick 200 M-point orbit for profiling the residency step
+#   progressive      point files drawn while they load: 50 M-point LAS and LAZ (issue 11)
+#   progressive-1g   brute-force progressive rendering of a 1 G-point LAS (issue 11)
 set -euo pipefail
 phase=$1
 out=$2
@@ -85,6 +87,32 @@ case "$phase" in
     "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1
     "$bin" bench "$small" --quality --vram-budget 1GiB --ram-budget 4GiB --loaders 8 \
       --json "$out/quality.json" 2>&1 | tee "$out/quality.txt"
+    ;;
+  progressive)
+    # bench-read is the time to read the file (the first frame must come in a tenth of it);
+    # bench flies the orbit in real time while the file loads, at a 60 FPS target. At most
+    # eight files come back from the GPU machine: one log, one JSON per format.
+    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv >"$out/gpu.txt" || true
+    for ext in las laz; do
+      f=/tmp/p50.$ext
+      "$bin" generate --points 50M -o "$f" 2>&1 | tail -1 | tee -a "$out/log.txt"
+      cat "$f" >/dev/null
+      "$bin" bench-read "$f" 2>&1 | tee -a "$out/log.txt"
+      for round in 1 2; do
+        "$bin" bench "$f" --realtime --orbit-seconds 10 --target-fps 60 --vram-budget 8GiB \
+          --json "$out/p50-$ext.json" 2>&1 | tee -a "$out/log.txt"
+      done
+      rm -f "$f"
+    done
+    ;;
+  progressive-1g)
+    f=/tmp/p1g.las
+    df -h /tmp | tee -a "$out/log.txt"
+    /usr/bin/time -f "generate: %e s, %M KiB" "$bin" generate --points 1G -o "$f" 2>&1 | tail -2 | tee -a "$out/log.txt"
+    cat "$f" >/dev/null
+    "$bin" bench-read "$f" 2>&1 | tee -a "$out/log.txt"
+    "$bin" bench "$f" --realtime --orbit-seconds 20 --target-fps 60 --vram-budget 20GiB \
+      --json "$out/p1g.json" 2>&1 | tee -a "$out/log.txt"
     ;;
   *)
     echo "unknown phase $phase" >&2

@@ -17,7 +17,7 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The store to fly through.
+    /// The store to fly through, or a point file (drawn progressively while it loads).
     pub store: PathBuf,
     /// `orbit` (the paper's path: one turn around the data, zooming in and out) or a camera
     /// path JSON file (as the viewer records).
@@ -56,10 +56,15 @@ pub struct Args {
     /// Buckets for `--quality` (default 1M,2.5M,5M,10M,25M,50M up to the store's size).
     #[arg(long, value_delimiter = ',', value_parser = crate::parse_bucket_arg)]
     pub buckets: Vec<u64>,
+    /// Point files: the frame rate the adaptive fill budget aims at.
+    #[arg(long, value_parser = crate::parse_fps_arg)]
+    pub target_fps: Option<f64>,
     #[command(flatten)]
     pub draw: DrawArgs,
     #[command(flatten)]
     pub virtual_args: VirtualArgs,
+    #[command(flatten)]
+    pub read: crate::load::ReadArgs,
 }
 
 #[derive(Serialize)]
@@ -119,8 +124,20 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(p) = &args.plot {
         plot_format(p)?;
     }
+    if !crate::load::is_store_path(&args.store) && args.store.is_file() {
+        if !args.draw.raster.accumulates() {
+            bail!(
+                "{}: bench draws point files progressively, which needs a closest-point \
+                 --raster (atomic-min, early-z, reduce, reduce-early-z, dedup); `pointlet \
+                 convert` it to bench {}",
+                args.store.display(),
+                args.draw.raster.name()
+            );
+        }
+        return crate::bench_progressive::run(&args);
+    }
     let store = crate::load::open_store(&args.store, "bench")?;
-    let color = crate::scene::store_color(args.draw.color, &store)?;
+    let color = crate::scene::store_color(args.draw.color.as_ref(), &store)?;
     drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;
     let config = args.virtual_args.config(&args.draw, color);
@@ -368,10 +385,14 @@ fn write_plot(path: &Path, rows: &[FrameRow]) -> Result<()> {
         series("handoff (render)", 6, &|r| r.handoff_ms),
         series("screen (GPU)", 4, &|r| r.screen_ms),
     ];
-    let title = "frame time along the path";
+    write_series(path, "frame time along the path", &all)
+}
+
+/// Frame-time series as an SVG or PNG plot, by the path's extension.
+pub(crate) fn write_series(path: &Path, title: &str, all: &[Series]) -> Result<()> {
     let bytes = match plot_format(path)? {
-        PlotFormat::Svg => pointlet_report::plot_svg(title, &all, "frame", "ms").into_bytes(),
-        PlotFormat::Png => pointlet_report::plot_png(title, &all, "frame", "ms", 1600, 900)?,
+        PlotFormat::Svg => pointlet_report::plot_svg(title, all, "frame", "ms").into_bytes(),
+        PlotFormat::Png => pointlet_report::plot_png(title, all, "frame", "ms", 1600, 900)?,
     };
     std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
 }

@@ -23,6 +23,11 @@ const VIRTUAL: [&str; 7] = [
 const IN_MEMORY: [&str; 2] = ["order", "page_size"];
 /// Flags of the point-file readers: a store carries its attributes.
 const READING: [&str; 1] = ["columns"];
+/// Flags that a point file drawn while it loads cannot use: its buffer keeps the shuffled
+/// order and the full16 encoding.
+const SHUFFLED: [&str; 2] = ["order", "encoding"];
+/// Flags of the progressive path only.
+const PROGRESSIVE: [&str; 1] = ["target_fps"];
 
 /// The flags of one subcommand typed on the command line.
 pub struct Given<'a>(pub &'a ArgMatches);
@@ -59,15 +64,58 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
         Command::Render(a) => {
             camera(given, &a.camera)?;
             let store_only = [&VIRTUAL[..], &["max_frames", "no_converge"]].concat();
-            drawing(given, a.input.as_deref(), a.draw.raster, &store_only)
+            // Point files drawn while loading also take a VRAM budget and a frame limit.
+            let also_progressive = ["vram_budget", "max_frames"];
+            drawing(
+                given,
+                a.input.as_deref(),
+                a.draw.raster,
+                &store_only,
+                &also_progressive,
+            )
         }
         Command::View(a) => {
             camera(given, &a.camera)?;
             let store_only = ["vram_budget", "ram_budget", "bucket", "converge_timeout"];
-            drawing(given, a.input.as_deref(), a.draw.raster, &store_only)
+            let progressive = a
+                .input
+                .as_deref()
+                .is_some_and(|p| crate::progressive_cmd::is_progressive(Some(p), a.draw.raster));
+            if !progressive {
+                given.refuse(
+                    &PROGRESSIVE,
+                    "point files drawn while they load",
+                    input_kind(a.input.as_deref()),
+                )?;
+            }
+            drawing(
+                given,
+                a.input.as_deref(),
+                a.draw.raster,
+                &store_only,
+                &["vram_budget", "converge_timeout"],
+            )
+        }
+        Command::Bench(a) if !crate::load::is_store_path(&a.store) => {
+            let kind = "a point file (drawn while it loads)";
+            given.refuse(
+                &SHUFFLED,
+                "point files drawn whole and the demo scene",
+                kind,
+            )?;
+            given.refuse(&["quality", "buckets", "warmup"], "stores", kind)?;
+            let store_only: Vec<&str> = VIRTUAL
+                .iter()
+                .copied()
+                .filter(|f| *f != "vram_budget")
+                .collect();
+            given.refuse(&store_only, "stores", kind)?;
+            bench_flight(given, a)
         }
         Command::Bench(a) => {
             store_drawing(given, a.draw.raster)?;
+            given.refuse(&READING, "point files", "a store")?;
+            given.refuse(&PROGRESSIVE, "point files", "a store")?;
             if a.quality {
                 let flight = [
                     "path",
@@ -82,17 +130,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             } else {
                 given.refuse(&["buckets"], "--quality", "the flight along a path")?;
             }
-            if a.path != "orbit" {
-                given.refuse(&["orbit_seconds"], "--path orbit", "a camera path file")?;
-                if a.realtime {
-                    given.refuse(
-                        &["frames"],
-                        "the orbit and by-frame flights",
-                        "a camera path file flown with --realtime (its keyframes are used)",
-                    )?;
-                }
-            }
-            Ok(())
+            bench_flight(given, a)
         }
         Command::BenchRaster(a) if a.input.is_some() => given.refuse(
             &["points"],
@@ -114,6 +152,21 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
     }
 }
 
+/// The flight along a path: orbit flags only for the orbit, frames not with a realtime path.
+fn bench_flight(given: &Given, a: &crate::bench_cmd::Args) -> Result<(), String> {
+    if a.path != "orbit" {
+        given.refuse(&["orbit_seconds"], "--path orbit", "a camera path file")?;
+        if a.realtime {
+            given.refuse(
+                &["frames"],
+                "the orbit and by-frame flights",
+                "a camera path file flown with --realtime (its keyframes are used)",
+            )?;
+        }
+    }
+    Ok(())
+}
+
 fn is_las_path(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
@@ -132,12 +185,14 @@ fn camera(given: &Given, camera: &CameraArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// `render` and `view`: stores and in-memory inputs use different flags.
+/// `render` and `view`: stores, point files drawn while they load and inputs drawn whole use
+/// different flags; `progressive_too` of `store_only` apply to loading point files as well.
 fn drawing(
     given: &Given,
     input: Option<&Path>,
     raster: RasterVariant,
     store_only: &[&str],
+    progressive_too: &[&str],
 ) -> Result<(), String> {
     let kind = input_kind(input);
     if input.is_some() {
@@ -148,7 +203,27 @@ fn drawing(
             given.refuse(&READING, "point files", kind)?;
             store_drawing(given, raster)
         }
-        _ => given.refuse(store_only, "stores", kind),
+        Some(p) if crate::progressive_cmd::is_progressive(Some(p), raster) => {
+            let kind = "a point file drawn while it loads (a closest-point --raster)";
+            given.refuse(
+                &SHUFFLED,
+                "the demo scene and point files drawn whole (--raster hqs, hqs1r, \
+                 atomic-min-32, hw-points)",
+                kind,
+            )?;
+            let refused: Vec<&str> = store_only
+                .iter()
+                .copied()
+                .filter(|f| !progressive_too.contains(f))
+                .collect();
+            given.refuse(&refused, "stores", kind)
+        }
+        _ => {
+            let (both, stores): (Vec<&str>, Vec<&str>) =
+                store_only.iter().partition(|f| progressive_too.contains(f));
+            given.refuse(&stores, "stores", kind)?;
+            given.refuse(&both, "stores and point files drawn while they load", kind)
+        }
     }
 }
 

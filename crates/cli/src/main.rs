@@ -2,6 +2,7 @@
 //! crates' stages together (io → store → gpu); every real decision lives in a library crate.
 
 mod bench_cmd;
+mod bench_progressive;
 mod bench_raster_cmd;
 mod bench_read_cmd;
 mod convert_cmd;
@@ -13,6 +14,7 @@ mod info_cmd;
 mod load;
 mod metrics_cmd;
 mod progress;
+mod progressive_cmd;
 mod render_cmd;
 mod scene;
 mod signals;
@@ -163,6 +165,14 @@ pub(crate) fn parse_bucket_arg(s: &str) -> Result<u64, String> {
     match parse_count_arg(s)? {
         0 => Err("the point bucket B must be at least 1 point".into()),
         b => Ok(b),
+    }
+}
+
+/// Clap value parser for a frame rate (1–1000 frames per second).
+pub(crate) fn parse_fps_arg(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (1.0..=1000.0).contains(&v) => Ok(v),
+        _ => Err("expected a frame rate between 1 and 1000".into()),
     }
 }
 

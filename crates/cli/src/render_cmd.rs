@@ -23,7 +23,8 @@ pub struct Args {
     pub draw: DrawArgs,
     #[command(flatten)]
     pub virtual_args: VirtualArgs,
-    /// Stores: frames at most to reach the full-detail image of the still camera.
+    /// Stores and point files: frames at most to reach the full-detail image of the still
+    /// camera.
     #[arg(long, default_value_t = 10_000)]
     pub max_frames: u32,
     /// Stores: stop at the LoD image of the bucket instead of converging to full detail.
@@ -82,11 +83,18 @@ pub fn run(args: Args) -> Result<()> {
     {
         return render_store(&args, store);
     }
+    if let Some(file) = args
+        .input
+        .as_deref()
+        .filter(|p| crate::progressive_cmd::is_progressive(Some(p), args.draw.raster))
+    {
+        return crate::progressive_cmd::render(&args, file);
+    }
     let (ctx, variant) = open_gpu(&args.draw)?;
     let scene = crate::scene::load(
         args.input.as_deref(),
         &args.read,
-        args.draw.color,
+        args.draw.color.as_ref(),
         args.demo_points,
     )?;
     let camera = args.camera.camera(&scene.bounds)?;
@@ -122,7 +130,7 @@ pub fn run(args: Args) -> Result<()> {
 /// full-detail image (or, with --no-converge, until the LoD's request is resident).
 fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
     let store = pointlet_store::Store::open(path)?;
-    let color = crate::scene::store_color(args.draw.color, &store)?;
+    let color = crate::scene::store_color(args.draw.color.as_ref(), &store)?;
     drop(store);
     let (ctx, variant) = open_gpu(&args.draw)?;
     let config = args.virtual_args.config(&args.draw, color);

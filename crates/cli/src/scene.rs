@@ -1,10 +1,12 @@
 //! Points for in-core rendering: from a store, any point file, or the built-in demo scene,
 //! coloured by one attribute.
 
+use crate::view_args::ColorArg;
 use anyhow::{bail, Context, Result};
 use pointlet_core::color::{
     default_color, default_color_of_parts, point_color, ColorMode, ColorScale, DefaultColor,
 };
+use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::{Aabb, PointBatch, PointLayout};
 use pointlet_gpu::PointSet;
 use std::path::Path;
@@ -19,17 +21,26 @@ pub struct Scene {
     pub bounds: Aabb,
 }
 
-/// The colouring `asked` for, which data of `layout` must have, or without one the data's
-/// default (said on stderr).
+/// The colouring `asked` for, which data of `layout` (with extra-bytes attributes `extras`)
+/// must have, or without one the data's default (said on stderr).
 pub fn choose_color(
-    asked: Option<ColorMode>,
+    asked: Option<&ColorArg>,
     layout: &PointLayout,
+    extras: &ExtraAttributes,
     name: &str,
     default: impl FnOnce() -> Result<DefaultColor>,
 ) -> Result<ColorMode> {
     match asked {
-        Some(mode) if mode.available_in(layout) => Ok(mode),
-        Some(mode) => bail!("{name} has no {} attribute to colour by", mode.name()),
+        Some(ColorArg::Mode(mode)) if mode.available_in(layout) => Ok(*mode),
+        Some(ColorArg::Mode(mode)) => bail!("{name} has no {} attribute to colour by", mode.name()),
+        Some(ColorArg::Extra(attr)) => match extras.find(attr).map(u8::try_from) {
+            Some(Ok(i)) => Ok(ColorMode::Extra(i)),
+            _ => bail!(
+                "{name} has no extra-bytes attribute '{attr}' to colour by (its extra-bytes \
+                 attributes: {})",
+                extras.names()
+            ),
+        },
         None => {
             let d = default()?;
             eprintln!("note: {name}: {d}");
@@ -38,16 +49,29 @@ pub fn choose_color(
     }
 }
 
+/// The extra-bytes attributes of data with these records and this layout.
+pub fn extras_of(vlrs: &[pointlet_core::Vlr], layout: &PointLayout) -> ExtraAttributes {
+    ExtraAttributes::from_vlrs(vlrs, usize::from(layout.extra_bytes))
+}
+
 /// [`choose_color`] for a store, its default chosen on a few pointlets.
-pub fn store_color(asked: Option<ColorMode>, store: &pointlet_store::Store) -> Result<ColorMode> {
-    let layout = store.header().layout;
-    choose_color(asked, &layout, &store.path().display().to_string(), || {
-        Ok(default_color_of_parts(
-            &layout,
-            store.pointlets().len(),
-            |i| store.read_pointlet(i),
-        )?)
-    })
+pub fn store_color(asked: Option<&ColorArg>, store: &pointlet_store::Store) -> Result<ColorMode> {
+    let h = store.header();
+    let layout = h.layout;
+    let extras = extras_of(&h.vlrs, &layout);
+    choose_color(
+        asked,
+        &layout,
+        &extras,
+        &store.path().display().to_string(),
+        || {
+            Ok(default_color_of_parts(
+                &layout,
+                store.pointlets().len(),
+                |i| store.read_pointlet(i),
+            )?)
+        },
+    )
 }
 
 /// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `asked`, or
@@ -55,16 +79,19 @@ pub fn store_color(asked: Option<ColorMode>, store: &pointlet_store::Store) -> R
 pub fn load(
     input: Option<&Path>,
     read: &crate::load::ReadArgs,
-    asked: Option<ColorMode>,
+    asked: Option<&ColorArg>,
     demo_points: u64,
 ) -> Result<Scene> {
     match input {
         Some(p) if crate::load::is_store_path(p) => {
             let store = pointlet_store::Store::open(p)?;
             let mode = store_color(asked, &store)?;
+            let h = store.header();
+            let extras = extras_of(&h.vlrs, &h.layout);
             let name = p.display().to_string();
             let bounds = store.header().bounds;
-            let mut acc = Accumulator::new(Some(mode), bounds, store.header().points);
+            let asked = ColorArg::Mode(mode);
+            let mut acc = Accumulator::new(Some(&asked), extras, bounds, h.points);
             for i in 0..store.pointlets().len() {
                 let batch = store
                     .read_pointlet(i)
@@ -95,11 +122,12 @@ pub fn load(
 
 fn read_all(
     mut reader: Box<dyn pointlet_io::PointReader>,
-    asked: Option<ColorMode>,
+    asked: Option<&ColorArg>,
     name: String,
 ) -> Result<Scene> {
     let meta = reader.meta().clone();
-    let mut acc = Accumulator::new(asked, meta.bounds, meta.point_count);
+    let extras = extras_of(&meta.vlrs, &meta.layout);
+    let mut acc = Accumulator::new(asked, extras, meta.bounds, meta.point_count);
     while let Some(batch) = reader.read_batch(1 << 20)? {
         acc.push(&batch, &name)?;
     }
@@ -107,19 +135,21 @@ fn read_all(
 }
 
 struct Accumulator {
-    /// `None` until the first batch chooses the default colouring.
-    mode: Option<ColorMode>,
+    /// What was asked for (`None`: the first batch chooses the default colouring).
+    mode: Option<ColorArg>,
+    extras: ExtraAttributes,
     scale: Option<ColorScale>,
     bounds: Aabb,
     set: PointSet,
 }
 
 impl Accumulator {
-    fn new(mode: Option<ColorMode>, bounds: Aabb, expected: u64) -> Self {
+    fn new(mode: Option<&ColorArg>, extras: ExtraAttributes, bounds: Aabb, expected: u64) -> Self {
         // Reserve what the header claims, capped: a lying header must not allocate terabytes.
         let cap = expected.min(1 << 28) as usize;
         Self {
-            mode,
+            mode: mode.cloned(),
+            extras,
             scale: None,
             bounds,
             set: PointSet {
@@ -140,10 +170,16 @@ impl Accumulator {
                 } else {
                     [self.bounds.min[2], self.bounds.max[2]]
                 };
-                let mode = choose_color(self.mode, &batch.layout, name, || {
-                    Ok(default_color(&batch.layout, &[batch]))
-                })?;
-                *self.scale.insert(ColorScale::fit(mode, &[batch], z))
+                let mode = choose_color(
+                    self.mode.as_ref(),
+                    &batch.layout,
+                    &self.extras,
+                    name,
+                    || Ok(default_color(&batch.layout, &[batch])),
+                )?;
+                *self
+                    .scale
+                    .insert(ColorScale::fit_in(mode, &[batch], z, &self.extras))
             }
         };
         self.set.positions.extend_from_slice(&batch.xyz);

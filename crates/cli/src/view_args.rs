@@ -68,9 +68,11 @@ pub struct DrawArgs {
     #[arg(long, default_value = "original", value_parser = parse_order)]
     pub order: VertexOrder,
     /// Colour by: rgb, intensity, elevation, classification, return-number, point-source-id,
-    /// gps-time (default: RGB where the data has colours, else intensity, else elevation).
+    /// gps-time, scan-angle, user-data, nir, or extra:NAME (an extra-bytes attribute, as
+    /// `info` lists them) (default: RGB where the data has colours, else intensity, else
+    /// elevation).
     #[arg(long, value_parser = parse_color)]
-    pub color: Option<ColorMode>,
+    pub color: Option<ColorArg>,
     /// Eye-Dome Lighting.
     #[arg(long)]
     pub edl: bool,
@@ -220,10 +222,24 @@ pub fn parse_order(s: &str) -> Result<VertexOrder, String> {
     })
 }
 
-pub fn parse_color(s: &str) -> Result<ColorMode, String> {
-    ColorMode::parse(s).ok_or_else(|| {
+/// What `--color` asks for: a colour mode, or an extra-bytes attribute by name, which only
+/// the data can resolve ([`crate::scene::choose_color`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColorArg {
+    Mode(ColorMode),
+    Extra(String),
+}
+
+pub fn parse_color(s: &str) -> Result<ColorArg, String> {
+    if let Some(name) = s.strip_prefix("extra:") {
+        if name.is_empty() {
+            return Err("extra: needs the attribute's name, as `info` lists it".into());
+        }
+        return Ok(ColorArg::Extra(name.to_string()));
+    }
+    ColorMode::parse(s).map(ColorArg::Mode).ok_or_else(|| {
         format!(
-            "unknown colouring (one of: {})",
+            "unknown colouring (one of: {}, extra:NAME)",
             names(&ColorMode::ALL, ColorMode::name)
         )
     })

@@ -1,6 +1,7 @@
 //! `pointlet view`: the interactive viewer (crates/viewer), with the camera and drawing
 //! arguments of `render` so that both show the same image of the same view.
 
+use crate::view_args::ColorArg;
 use crate::view_args::{CameraArgs, DrawArgs};
 use anyhow::Result;
 use pointlet_viewer::{Automation, Input, StoreBudgets, ViewerConfig};
@@ -8,8 +9,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A store (streamed within the budgets) or any point file (read whole); without one, the
-    /// built-in demo scene.
+    /// A store (streamed within the budgets) or any point file (drawn while it loads); without
+    /// one, the built-in demo scene.
     pub input: Option<PathBuf>,
     /// Window width in pixels.
     #[arg(long, default_value_t = 1280)]
@@ -24,7 +25,8 @@ pub struct Args {
     /// Points of the demo scene (without INPUT).
     #[arg(long, default_value_t = crate::scene::DEMO_POINTS, value_parser = crate::parse_count_arg)]
     pub demo_points: u64,
-    /// GPU memory for a store's points, tables and frame.
+    /// GPU memory for a store's points, tables and frame, or a point file's shuffled buffer
+    /// (a larger file shows a uniform subset).
     #[arg(long, default_value = "2GiB", value_parser = crate::parse_bytes_arg)]
     pub vram_budget: u64,
     /// RAM for a store's cached points.
@@ -49,6 +51,9 @@ pub struct Args {
     /// Draw as fast as possible instead of at the display's refresh rate.
     #[arg(long)]
     pub no_vsync: bool,
+    /// Point files: the frame rate the adaptive fill budget aims at (default 60).
+    #[arg(long, value_parser = crate::parse_fps_arg)]
+    pub target_fps: Option<f64>,
     #[command(flatten)]
     pub read: crate::load::ReadArgs,
 }
@@ -71,7 +76,13 @@ pub fn run(args: Args) -> Result<()> {
         camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
         size: (args.width, args.height),
         settings: args.draw.settings(args.draw.raster),
-        color: args.draw.color,
+        color: match &args.draw.color {
+            None => None,
+            Some(ColorArg::Mode(m)) => Some(*m),
+            Some(ColorArg::Extra(_)) => anyhow::bail!(
+                "the viewer cannot colour by extra-bytes attributes yet (render and bench can)"
+            ),
+        },
         encoding: args.draw.encoding,
         page_size: args.draw.page_size,
         order: args.draw.order,
@@ -88,6 +99,7 @@ pub fn run(args: Args) -> Result<()> {
             converge_timeout_s: args.converge_timeout,
         }),
         vsync: !args.no_vsync,
+        target_fps: args.target_fps.unwrap_or(60.0),
     };
     pointlet_viewer::run(config)?;
     Ok(())

@@ -77,22 +77,10 @@ fn generate_is_deterministic() {
 
 /// Lit pixels of a PNG (any channel above 0).
 fn lit_pixels(path: &std::path::Path) -> usize {
-    let decoder = png::Decoder::new(std::io::BufReader::new(
-        std::fs::File::open(path).expect("open png"),
-    ));
-    let mut reader = decoder.read_info().expect("png header");
-    let mut buf = vec![0; reader.output_buffer_size().expect("png size")];
-    let info = reader.next_frame(&mut buf).expect("png data");
-    buf.truncate(info.buffer_size());
-    buf.chunks_exact(4).filter(|p| p[..3] != [0, 0, 0]).count()
-}
-
-/// Runs and asserts success, returning stderr.
-fn ok_stderr(args: &[&str]) -> String {
-    let out = pointlet(args);
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(out.status.success(), "pointlet {args:?} failed:\n{err}");
-    err
+    png_rgba(path)
+        .chunks_exact(4)
+        .filter(|p| p[..3] != [0, 0, 0])
+        .count()
 }
 
 #[test]
@@ -191,8 +179,36 @@ fn flags_that_do_not_apply_are_refused() {
             let mut args = vec!["render", "-o", png];
             args.extend(input);
             args.extend_from_slice(flag);
-            usage_fails(&args, &[flag[0], "applies to stores only", kind]);
+            // A point file drawn while it loads takes a VRAM budget and a frame limit too.
+            let loading_too = ["--vram-budget", "--max-frames"].contains(&flag[0]);
+            match (input, loading_too) {
+                (Some(_), true) => {
+                    let elsewhere = tempfile::tempdir().expect("tempdir");
+                    let out = elsewhere.path().join("ok.png");
+                    args[2] = s(&out);
+                    args.extend(["--width", "32", "--height", "32"]);
+                    ok(&args);
+                }
+                (None, true) => usage_fails(
+                    &args,
+                    &[
+                        flag[0],
+                        "stores and point files drawn while they load",
+                        kind,
+                    ],
+                ),
+                (_, false) => usage_fails(&args, &[flag[0], "applies to stores only", kind]),
+            }
         }
+    }
+    // Read whole (a blending rasterizer), a point file takes neither.
+    for flag in [["--vram-budget", "1GiB"], ["--max-frames", "5"]] {
+        usage_fails(
+            &[
+                "render", "-o", png, &file, "--raster", "hqs", flag[0], flag[1],
+            ],
+            &[flag[0], "not to a point file"],
+        );
     }
     for flag in [["--order", "morton"], ["--page-size", "1024"]] {
         usage_fails(
@@ -221,14 +237,18 @@ fn flags_that_do_not_apply_are_refused() {
             &["hw-points draws point files and the demo scene only"],
         );
     }
-    for flag in [
-        ["--bucket", "10"],
-        ["--vram-budget", "1GiB"],
-        ["--converge-timeout", "3"],
-    ] {
+    for flag in [["--bucket", "10"], ["--ram-budget", "1GiB"]] {
         usage_fails(
             &["view", &file, "--frames", "1", flag[0], flag[1]],
             &[flag[0], "stores only"],
+        );
+    }
+    for flag in [["--vram-budget", "1GiB"], ["--converge-timeout", "3"]] {
+        usage_fails(
+            &[
+                "view", &file, "--raster", "hqs", "--frames", "1", flag[0], flag[1],
+            ],
+            &[flag[0], "not to a point file"],
         );
     }
     usage_fails(&["view", &store, "--converge-timeout", "3"], &["--frames"]);
@@ -454,17 +474,15 @@ fn render_of_the_demo_scene_says_its_point_count_once() {
 }
 
 #[test]
-fn export_and_bench_of_a_point_file_say_to_convert_it() {
+fn export_of_a_point_file_says_to_convert_it() {
     let dir = tempfile::tempdir().expect("tempdir");
     let las = data("simple.las");
     let out = dir.path().join("x.las");
-    for (args, command) in [
-        (vec!["export", s(&las), "-o", s(&out)], "export"),
-        (vec!["bench", s(&las), "--frames", "2"], "bench"),
-    ] {
-        let err = fails(&args, &["simple.las", command, "pointlet convert"]);
-        assert!(!err.contains("damaged"), "{err}");
-    }
+    let err = fails(
+        &["export", s(&las), "-o", s(&out)],
+        &["simple.las", "export", "pointlet convert"],
+    );
+    assert!(!err.contains("damaged"), "{err}");
     assert!(listing(dir.path()).is_empty(), "nothing written");
 }
 
@@ -526,4 +544,66 @@ fn every_standard_attribute_can_colour_files_and_stores() {
             &["no nir attribute"],
         );
     }
+}
+
+#[test]
+fn extra_bytes_attributes_colour_files_and_stores_by_name() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("eb.pointlet");
+    ok(&["convert", s(&data("extrabytes.las")), "-o", s(&store)]);
+    for (k, input) in [data("extrabytes.las"), store].iter().enumerate() {
+        let render = |color: &str| {
+            let png = dir
+                .path()
+                .join(format!("{k}-{}.png", color.replace(':', "-")));
+            let args = ["render", s(input), "-o", s(&png), "--width", "64"];
+            ok(&[&args[..], &["--color", color]].concat());
+            std::fs::read(&png).expect("png")
+        };
+        let intensity = render("extra:Intensity");
+        // Names match ignoring case when that is unambiguous.
+        assert!(render("extra:intensity") == intensity);
+        assert!(
+            render("extra:Time") != intensity,
+            "two attributes draw alike"
+        );
+        assert!(
+            render("elevation") != intensity,
+            "extra:Intensity draws like elevation"
+        );
+        fails(
+            &[
+                "render",
+                s(input),
+                "-o",
+                s(&dir.path().join("n.png")),
+                "--color",
+                "extra:nope",
+            ],
+            &["no extra-bytes attribute 'nope'", "Colors[0]", "Time"],
+        );
+    }
+    fails(
+        &[
+            "render",
+            s(&data("simple.las")),
+            "-o",
+            s(&dir.path().join("n.png")),
+            "--color",
+            "extra:x",
+        ],
+        &["attributes: none"],
+    );
+    usage_fails(
+        &["render", s(&data("simple.las")), "--color", "extra:"],
+        &["extra: needs"],
+    );
+}
+
+#[test]
+fn the_viewer_says_it_cannot_colour_by_extra_bytes_yet() {
+    fails(
+        &["view", s(&data("extrabytes.las")), "--color", "extra:Time"],
+        &["viewer cannot colour by extra-bytes attributes yet"],
+    );
 }

@@ -89,3 +89,23 @@ pub fn usage_fails(args: &[&str], needles: &[&str]) {
         );
     }
 }
+
+/// Runs and asserts success, returning stderr.
+pub fn ok_stderr(args: &[&str]) -> String {
+    let out = pointlet(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "pointlet {args:?} failed:\n{err}");
+    err
+}
+
+/// The RGBA pixels of a PNG the binary wrote.
+pub fn png_rgba(path: &Path) -> Vec<u8> {
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(path).expect("open png"),
+    ));
+    let mut reader = decoder.read_info().expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("png size")];
+    let info = reader.next_frame(&mut buf).expect("png data");
+    buf.truncate(info.buffer_size());
+    buf
+}

@@ -168,8 +168,6 @@ fn viewer_window_matches_render_of_the_same_camera() {
             "--edl",
             "--fill",
             "1",
-            "--order",
-            "shuffled",
         ],
     );
     assert_view_matches_render(

@@ -1,6 +1,7 @@
 //! Attribute colouring: turns a point attribute into the RGBA8 word the rasterizers draw
 //! (red in the low byte). The viewer switches between these; render/bench use one.
 
+use crate::extra::{ExtraAttributes, ExtraValue};
 use crate::{PointBatch, PointLayout};
 use serde::{Deserialize, Serialize};
 
@@ -16,6 +17,8 @@ pub enum ColorMode {
     ScanAngle,
     UserData,
     Nir,
+    /// Attribute `i` of the data's extra bytes ([`crate::extra::ExtraAttributes`]).
+    Extra(u8),
 }
 
 impl ColorMode {
@@ -44,6 +47,7 @@ impl ColorMode {
             ColorMode::ScanAngle => "scan-angle",
             ColorMode::UserData => "user-data",
             ColorMode::Nir => "nir",
+            ColorMode::Extra(_) => "extra",
         }
     }
 
@@ -61,6 +65,7 @@ impl ColorMode {
             ColorMode::Rgb => layout.rgb,
             ColorMode::GpsTime => layout.gps_time,
             ColorMode::Nir => layout.nir,
+            ColorMode::Extra(_) => layout.extra_bytes > 0,
             _ => true,
         }
     }
@@ -75,6 +80,7 @@ impl ColorMode {
                 | ColorMode::ScanAngle
                 | ColorMode::UserData
                 | ColorMode::Nir
+                | ColorMode::Extra(_)
         )
     }
 }
@@ -157,25 +163,37 @@ pub struct ColorScale {
     pub gamma: f64,
     pub rgb_8bit: bool,
     pub ramp: Ramp,
+    /// How to read the value of an [`ColorMode::Extra`] attribute (`None` draws it grey).
+    pub extra: Option<ExtraValue>,
 }
 
 impl ColorScale {
+    /// [`ColorScale::fit`] that can also fit an extra-bytes attribute of `extras`.
+    pub fn fit_in(
+        mode: ColorMode,
+        sample: &[&PointBatch],
+        z_range: [f64; 2],
+        extras: &ExtraAttributes,
+    ) -> Self {
+        let mut scale = Self::fit(mode, sample, z_range);
+        if let ColorMode::Extra(i) = mode {
+            if let Some(a) = extras.attributes.get(usize::from(i)) {
+                let x = a.reader();
+                let values = sample
+                    .iter()
+                    .flat_map(|b| extra_values(b, x))
+                    .collect::<Vec<f64>>();
+                scale.range = percentile_range(values);
+                scale.extra = Some(x);
+            }
+        }
+        scale
+    }
+
     /// A scale whose ranges come from a sample of the data (a file's first batch, a store's
     /// [`sample_parts`]), with 1 % / 99 % percentiles so outliers do not flatten the picture.
     pub fn fit(mode: ColorMode, sample: &[&PointBatch], z_range: [f64; 2]) -> Self {
-        let pct = |mut v: Vec<f64>| -> [f64; 2] {
-            if v.is_empty() {
-                return [0.0, 1.0];
-            }
-            v.sort_by(f64::total_cmp);
-            let at = |q: f64| v[((v.len() - 1) as f64 * q) as usize];
-            let (lo, hi) = (at(0.01), at(0.99));
-            if hi > lo {
-                [lo, hi]
-            } else {
-                [lo, lo + 1.0]
-            }
-        };
+        let pct = percentile_range;
         let range = match mode {
             ColorMode::Intensity => pct(sample
                 .iter()
@@ -207,8 +225,34 @@ impl ColorScale {
             gamma: 1.0,
             rgb_8bit,
             ramp: Ramp::Viridis,
+            extra: None,
         }
     }
+}
+
+/// The 1 % and 99 % percentiles of `v` (outliers do not flatten the picture); [0, 1] when
+/// empty, one unit wide when flat.
+fn percentile_range(mut v: Vec<f64>) -> [f64; 2] {
+    if v.is_empty() {
+        return [0.0, 1.0];
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q) as usize];
+    let (lo, hi) = (at(0.01), at(0.99));
+    if hi > lo {
+        [lo, hi]
+    } else {
+        [lo, lo + 1.0]
+    }
+}
+
+/// The values of an extra-bytes attribute in `batch` (no-data left out).
+fn extra_values(batch: &PointBatch, x: ExtraValue) -> impl Iterator<Item = f64> + '_ {
+    let w = usize::from(batch.layout.extra_bytes).max(1);
+    batch
+        .extra_bytes
+        .chunks_exact(w)
+        .filter_map(move |e| x.read(e))
 }
 
 /// Colour ramps for scalar attributes.
@@ -381,6 +425,13 @@ pub fn point_color(batch: &PointBatch, i: usize, scale: &ColorScale) -> u32 {
             .nir
             .get(i)
             .map_or(grey, |v| scale.ramp.at(norm(f64::from(*v)))),
+        ColorMode::Extra(_) => {
+            let w = usize::from(batch.layout.extra_bytes);
+            let value = scale
+                .extra
+                .and_then(|x| x.read(batch.extra_bytes.get(i * w..(i + 1) * w)?));
+            value.map_or(grey, |v| scale.ramp.at(norm(v)))
+        }
     };
     pack_rgba(c, batch.classification.get(i).copied().unwrap_or(0))
 }
@@ -409,6 +460,7 @@ mod tests {
             gamma: 1.0,
             rgb_8bit: false,
             ramp: Ramp::Grey,
+            extra: None,
         };
         let rgb = |i| point_color(&b, i, &scale).to_le_bytes();
         let (low, high) = (rgb(0), rgb(2));

@@ -91,6 +91,33 @@ impl ExtraType {
     }
 }
 
+/// How to read one attribute's value out of a point's extra bytes (the part of an
+/// [`ExtraAttribute`] a colour scale keeps).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExtraValue {
+    /// Where the value starts inside a point's extra bytes.
+    pub at: usize,
+    pub kind: ExtraType,
+    /// value = raw · scale + offset.
+    pub scale: f64,
+    pub offset: f64,
+    /// A raw value meaning "no data".
+    pub no_data: Option<f64>,
+}
+
+impl ExtraValue {
+    /// The value in a point's extra bytes; `None` for the no-data value or bytes too short.
+    pub fn read(&self, extra: &[u8]) -> Option<f64> {
+        let raw = self
+            .kind
+            .read(extra.get(self.at..self.at + self.kind.bytes())?);
+        if self.no_data == Some(raw) {
+            return None;
+        }
+        Some(raw * self.scale + self.offset)
+    }
+}
+
 /// One numeric attribute held in the extra bytes (an element of a legacy array type counts as
 /// one attribute, named `name[i]`).
 #[derive(Clone, Debug, PartialEq)]
@@ -108,16 +135,20 @@ pub struct ExtraAttribute {
 }
 
 impl ExtraAttribute {
+    pub fn reader(&self) -> ExtraValue {
+        ExtraValue {
+            at: self.at,
+            kind: self.kind,
+            scale: self.scale,
+            offset: self.offset,
+            no_data: self.no_data,
+        }
+    }
+
     /// The attribute's value in a point's extra bytes; `None` for the no-data value or bytes
     /// too short to hold it.
     pub fn value(&self, extra: &[u8]) -> Option<f64> {
-        let raw = self
-            .kind
-            .read(extra.get(self.at..self.at + self.kind.bytes())?);
-        if self.no_data == Some(raw) {
-            return None;
-        }
-        Some(raw * self.scale + self.offset)
+        self.reader().read(extra)
     }
 }
 
@@ -132,6 +163,32 @@ pub struct ExtraAttributes {
 }
 
 impl ExtraAttributes {
+    /// The attribute called `name` (exactly, or ignoring case when that is unambiguous).
+    pub fn find(&self, name: &str) -> Option<usize> {
+        let exact = self.attributes.iter().position(|a| a.name == name);
+        exact.or_else(|| {
+            let mut same = self
+                .attributes
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| a.name.eq_ignore_ascii_case(name));
+            match (same.next(), same.next()) {
+                (Some((i, _)), None) => Some(i),
+                _ => None,
+            }
+        })
+    }
+
+    /// The names, for messages.
+    pub fn names(&self) -> String {
+        let names: Vec<&str> = self.attributes.iter().map(|a| a.name.as_str()).collect();
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        }
+    }
+
     /// Reads the extra-bytes record among `vlrs` for points with `extra_len` extra bytes.
     /// A damaged or inconsistent record is not an error: the bytes stay undocumented and
     /// `problem` says why (the points themselves are still good).

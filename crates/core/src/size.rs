@@ -92,9 +92,36 @@ pub fn format_bytes(b: u64) -> String {
     }
 }
 
+/// Formats a count for humans, e.g. `412 M`, `1.2 G`, `53 k` (three significant digits).
+pub fn format_count(n: u64) -> String {
+    const U: [(f64, &str); 3] = [(1e9, "G"), (1e6, "M"), (1e3, "k")];
+    for (scale, unit) in U {
+        let v = n as f64 / scale;
+        if v >= 1.0 {
+            let decimals = if v >= 100.0 {
+                0
+            } else if v >= 10.0 {
+                1
+            } else {
+                2
+            };
+            return format!("{v:.decimals$} {unit}");
+        }
+    }
+    n.to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn counts() {
+        assert_eq!(format_count(999), "999");
+        assert_eq!(format_count(53_400), "53.4 k");
+        assert_eq!(format_count(412_000_000), "412 M");
+        assert_eq!(format_count(1_200_000_000), "1.20 G");
+    }
 
     #[test]
     fn sizes() {

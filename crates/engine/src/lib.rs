@@ -5,11 +5,15 @@
 //! cost work; the render thread waits neither for the disk nor for the residency step.
 
 pub mod progressive;
+mod progressive_scene;
 mod residency;
 mod scene;
 mod source;
 mod step;
 
+pub use progressive_scene::{
+    FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene, SLOT_BYTES,
+};
 pub use residency::{ResidencySet, Window};
 pub use scene::{
     target_bytes, FrameReport, PickedPoint, SceneConfig, StepReport, VirtualScene, RESIDENCY_PARTS,

@@ -5,18 +5,25 @@
 //! buffer at their points' global indices. Encoded batches wait in a bounded queue, so memory
 //! stays bounded whatever the file's size.
 //!
-//! The caller sizes the [`ShuffledBuffer`] from the header's point count ([`ProgressiveLoad::total`]);
-//! a file that claims more points than the GPU's memory holds is not handled here.
+//! The caller sizes the [`ShuffledBuffer`] to [`ProgressiveLoad::slots`]: the header's point
+//! count, or fewer (`LoadConfig::max_slots`, from the VRAM budget), in which case the buffer
+//! keeps a uniform random subset of the whole file ([`Reservoir`]): the first points go to
+//! their permuted slots, each later one replaces a random slot or is left out. A colours-only
+//! load ([`LoadConfig::colors_only`]) reads the file again and rewrites only the colours of the
+//! same slots (attribute switching, paper §3.5).
 
 use crate::EngineError;
 use pointlet_core::color::{
     default_color, point_color, sample_indices, ColorMode, ColorScale, DefaultColor,
 };
+use pointlet_core::extra::ExtraAttributes;
+use pointlet_core::progressive::Reservoir;
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
-use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer};
+use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer, Targets};
 use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::{PointReader, ReadOptions};
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
@@ -45,6 +52,13 @@ pub struct LoadConfig {
     pub queue_batches: usize,
     /// What text files do not say for themselves.
     pub read: ReadOptions,
+    /// Slots of the shuffled buffer at most (the VRAM budget's points); a file with more
+    /// points keeps a uniform subset of this many.
+    pub max_slots: u64,
+    /// Decode and upload only the colours (the positions are already in the buffer).
+    pub colors_only: bool,
+    /// Seed of the reservoir's choices (a colours-only load must use the points load's).
+    pub seed: u64,
 }
 
 impl Default for LoadConfig {
@@ -54,6 +68,9 @@ impl Default for LoadConfig {
             batch_points: BATCH_POINTS,
             queue_batches: QUEUE_BATCHES,
             read: ReadOptions::default(),
+            max_slots: u64::from(u32::MAX),
+            colors_only: false,
+            seed: 0x5eed,
         }
     }
 }
@@ -79,8 +96,10 @@ pub enum LoadState {
 /// Where loading stands.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LoadProgress {
-    /// Points the header claims: the shuffled buffer's slots.
+    /// Points the header claims.
     pub total: u64,
+    /// Slots of the shuffled buffer: `total`, or fewer when the file exceeds the VRAM budget.
+    pub slots: u64,
     /// Points decoded and encoded by the load thread.
     pub loaded: u64,
     /// Points scattered into the shuffled buffer.
@@ -95,6 +114,11 @@ pub struct LoadProgress {
 impl LoadProgress {
     pub fn is_finished(&self) -> bool {
         self.state != LoadState::Loading
+    }
+
+    /// Points of the file the buffer holds now.
+    pub fn shown(&self) -> u64 {
+        self.uploaded.min(self.slots)
     }
 
     /// Points uploaded per second.
@@ -119,11 +143,16 @@ pub struct Uploaded {
     pub failure: Option<EngineError>,
 }
 
-/// Points `first..first + colors.len()` of the file, encoded.
+/// Encoded points of the file: those of indices `first..first + colors.len()`, or with
+/// `slots`, points past the reservoir's capacity with the slot each replaces. `positions` is
+/// empty for a colours-only load.
 struct EncodedPoints {
     first: u64,
+    slots: Option<Vec<u32>>,
     positions: Vec<u32>,
     colors: Vec<u32>,
+    /// Points of the file this message accounts for (left-out points included).
+    read: u64,
 }
 
 enum Message {
@@ -150,6 +179,9 @@ struct Shared {
 struct Job {
     path: PathBuf,
     total: u64,
+    reservoir: Reservoir,
+    colors_only: bool,
+    extras: ExtraAttributes,
     origin: [f64; 3],
     z_range: [f64; 2],
     layout: PointLayout,
@@ -163,11 +195,19 @@ struct Job {
 /// stops the load thread (after the batch it is decoding).
 pub struct ProgressiveLoad {
     path: PathBuf,
+    layout: PointLayout,
+    /// What the reader noted about the file (for `note:` lines).
+    notes: Vec<String>,
+    bounds: pointlet_core::Aabb,
     total: u64,
+    slots: u64,
+    colors_only: bool,
     origin: [f64; 3],
     file_bytes: u64,
     shared: Arc<Shared>,
     queue: Option<Receiver<Message>>,
+    /// A message [`wait_ready`](ProgressiveLoad::wait_ready) took off the queue.
+    stash: Option<Message>,
     thread: Option<JoinHandle<()>>,
     uploaded: u64,
     started: Instant,
@@ -189,13 +229,20 @@ impl ProgressiveLoad {
                 mode.name()
             )));
         }
-        let total = meta.point_count;
-        if total > u64::from(u32::MAX) {
-            return Err(EngineError::Config(format!(
-                "{}: {total} points exceed the {} slots of a shuffled buffer",
-                path.display(),
-                u32::MAX
-            )));
+        let (total, bounds) = (meta.point_count, meta.bounds);
+        let notes = reader.notes().to_vec();
+        let layout = meta.layout;
+        let slots = total.min(config.max_slots.min(u64::from(u32::MAX)));
+        let reservoir = Reservoir::new(slots, config.seed)
+            .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?;
+        let extras = ExtraAttributes::from_vlrs(&meta.vlrs, usize::from(meta.layout.extra_bytes));
+        if let Some(ColorMode::Extra(i)) = config.color {
+            if usize::from(i) >= extras.attributes.len() {
+                return Err(EngineError::Config(format!(
+                    "{} has no extra-bytes attribute {i} to colour by",
+                    path.display()
+                )));
+            }
         }
         let (origin, z_range) = if meta.bounds.is_empty() {
             ([0.0; 3], [0.0, 1.0])
@@ -210,6 +257,9 @@ impl ProgressiveLoad {
         let job = Job {
             path: path.to_path_buf(),
             total,
+            reservoir,
+            colors_only: config.colors_only,
+            extras,
             origin,
             z_range,
             layout: meta.layout,
@@ -224,11 +274,17 @@ impl ProgressiveLoad {
             .map_err(|e| EngineError::Read(format!("starting the load thread: {e}")))?;
         Ok(Self {
             path: path.to_path_buf(),
+            layout,
+            notes,
+            bounds,
             total,
+            slots,
+            colors_only: config.colors_only,
             origin,
             file_bytes,
             shared,
             queue: Some(rx),
+            stash: None,
             thread: Some(thread),
             uploaded: 0,
             started: Instant::now(),
@@ -241,9 +297,34 @@ impl ProgressiveLoad {
         &self.path
     }
 
-    /// Points the header claims: the slot count of the shuffled buffer to scatter into.
+    /// What the reader noted about the file.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// The attributes the file has.
+    pub fn layout(&self) -> PointLayout {
+        self.layout
+    }
+
+    /// The header's bounds (positions are encoded relative to their minimum).
+    pub fn bounds(&self) -> pointlet_core::Aabb {
+        self.bounds
+    }
+
+    /// Points the header claims.
     pub fn total(&self) -> u64 {
         self.total
+    }
+
+    /// Slots of the shuffled buffer to scatter into: [`total`](Self::total), or the VRAM
+    /// budget's points when the file holds more.
+    pub fn slots(&self) -> u64 {
+        self.slots
+    }
+
+    pub fn colors_only(&self) -> bool {
+        self.colors_only
     }
 
     /// Positions are relative to this point (the header bounds' minimum).
@@ -259,6 +340,7 @@ impl ProgressiveLoad {
     pub fn progress(&self) -> LoadProgress {
         LoadProgress {
             total: self.total,
+            slots: self.slots,
             loaded: self.shared.loaded.load(Ordering::Relaxed),
             uploaded: self.uploaded,
             file_bytes: self.file_bytes,
@@ -268,7 +350,7 @@ impl ProgressiveLoad {
     }
 
     /// Scatters up to `max_batches` batches that are ready into `dst` (a Full16 buffer of
-    /// [`total`](Self::total) slots) without waiting for the load thread. An `Err` is a GPU or
+    /// [`slots`](Self::slots) slots) without waiting for the load thread. An `Err` is a GPU or
     /// configuration error; the reader's error comes back once, in [`Uploaded::failure`].
     pub fn upload_ready(
         &mut self,
@@ -277,11 +359,11 @@ impl ProgressiveLoad {
         dst: &ShuffledBuffer,
         max_batches: usize,
     ) -> Result<Uploaded, EngineError> {
-        if dst.encoding() != PointEncoding::Full16 || dst.permutation().len() != self.total {
+        if dst.encoding() != PointEncoding::Full16 || dst.permutation().len() != self.slots {
             return Err(EngineError::Config(format!(
                 "{} loads into a full16 shuffled buffer of {} slots, not a {} one of {}",
                 self.path.display(),
-                self.total,
+                self.slots,
                 dst.encoding().name(),
                 dst.permutation().len()
             )));
@@ -289,22 +371,37 @@ impl ProgressiveLoad {
         let mut up = Uploaded::default();
         while up.batches < max_batches {
             let Some(queue) = &self.queue else { break };
-            match queue.try_recv() {
+            let next = match self.stash.take() {
+                Some(m) => Ok(m),
+                None => queue.try_recv(),
+            };
+            match next {
                 Ok(Message::Batch(b)) => {
-                    let count = b.colors.len() as u64;
-                    // The load thread keeps every batch within the header's count ≤ u32::MAX.
-                    let first = u32::try_from(b.first).map_err(|_| {
-                        EngineError::Config(format!("point {} lies beyond u32 slots", b.first))
-                    })?;
-                    let batch = EncodedBatch {
-                        positions: &b.positions,
-                        fine: &[],
-                        colors: &b.colors,
+                    let targets = match &b.slots {
+                        Some(slots) => Targets::Slots(slots),
+                        // The load thread keeps permuted batches within the slots ≤ u32::MAX.
+                        None => Targets::Permuted {
+                            first: u32::try_from(b.first).map_err(|_| {
+                                EngineError::Config(format!(
+                                    "point {} lies beyond u32 slots",
+                                    b.first
+                                ))
+                            })?,
+                        },
                     };
-                    pass.scatter(ctx, dst, first, batch)?;
-                    self.uploaded += count;
+                    if self.colors_only {
+                        pass.scatter_colors(ctx, dst, targets, &b.colors)?;
+                    } else {
+                        let batch = EncodedBatch {
+                            positions: &b.positions,
+                            fine: &[],
+                            colors: &b.colors,
+                        };
+                        pass.scatter_to(ctx, dst, targets, batch)?;
+                    }
+                    self.uploaded += b.read;
                     up.batches += 1;
-                    up.points += count;
+                    up.points += b.read;
                 }
                 Ok(Message::Done) => self.end(LoadState::Loaded),
                 Ok(Message::Failed(message)) => {
@@ -324,6 +421,27 @@ impl ProgressiveLoad {
         Ok(up)
     }
 
+    /// Waits up to `timeout` until the load thread has something for
+    /// [`upload_ready`](Self::upload_ready) (a batch, the end or an error); false if nothing
+    /// came. For callers with nothing to draw until then (`render`).
+    pub fn wait_ready(&mut self, timeout: Duration) -> bool {
+        if self.stash.is_some() {
+            return true;
+        }
+        let Some(queue) = &self.queue else {
+            return true;
+        };
+        match queue.recv_timeout(timeout) {
+            Ok(m) => {
+                self.stash = Some(m);
+                true
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => false,
+            // upload_ready reports the stopped thread.
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => true,
+        }
+    }
+
     fn end(&mut self, state: LoadState) {
         self.state = state;
         self.ended = Some(Instant::now());
@@ -333,6 +451,7 @@ impl ProgressiveLoad {
     fn stop_thread(&mut self) {
         // Without its queue the load thread's next send fails and it returns.
         self.queue = None;
+        self.stash = None;
         if let Some(thread) = self.thread.take() {
             // A panic there was already reported as a disconnected queue.
             let _ = thread.join();
@@ -388,16 +507,19 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
             end += 1;
         }
         check_fits(job, first, points)?;
+        let words = if job.colors_only { 0 } else { WORDS };
         let mut out = EncodedPoints {
             first,
-            positions: vec![0; points as usize * WORDS],
+            slots: None,
+            positions: vec![0; points as usize * words],
             colors: vec![0; points as usize],
+            read: points,
         };
         // Each part's slices of the batch, so that threads encode in place.
         let mut jobs = Vec::with_capacity(end - part);
         let (mut pos, mut col) = (&mut out.positions[..], &mut out.colors[..]);
         for (i, &size) in sizes.iter().enumerate().take(end).skip(part) {
-            let (p, rest_p) = std::mem::take(&mut pos).split_at_mut(size as usize * WORDS);
+            let (p, rest_p) = std::mem::take(&mut pos).split_at_mut(size as usize * words);
             let (c, rest_c) = std::mem::take(&mut col).split_at_mut(size as usize);
             jobs.push((i, p, c));
             (pos, col) = (rest_p, rest_c);
@@ -426,8 +548,9 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
         // The parts before the first that failed are good: they go to the GPU before the error.
         let good = results.iter().take_while(|r| r.is_ok()).count();
         let kept: u64 = sizes[part..part + good].iter().sum();
-        out.positions.truncate(kept as usize * WORDS);
+        out.positions.truncate(kept as usize * words);
         out.colors.truncate(kept as usize);
+        out.read = kept;
         send(job, out)?;
         if let Some(Err(message)) = results.into_iter().nth(good) {
             return Err(Stop::Failed(message));
@@ -463,10 +586,13 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
             .get_or_init(|| choose_color(job, &[&batch]));
         let n = batch.len();
         check_fits(job, first, n as u64)?;
+        let words = if job.colors_only { 0 } else { WORDS };
         let mut out = EncodedPoints {
             first,
-            positions: vec![0; n * WORDS],
+            slots: None,
+            positions: vec![0; n * words],
             colors: vec![0; n],
+            read: n as u64,
         };
         encode_into(
             &batch,
@@ -491,7 +617,7 @@ fn choose_color(job: &Job, sample: &[&PointBatch]) -> LoadColor {
         .or(default.map(|d| d.mode))
         .unwrap_or(ColorMode::Elevation);
     LoadColor {
-        scale: ColorScale::fit(mode, sample, job.z_range),
+        scale: ColorScale::fit_in(mode, sample, job.z_range, &job.extras),
         default,
     }
 }
@@ -508,7 +634,8 @@ fn check_fits(job: &Job, first: u64, n: u64) -> Result<(), Stop> {
     Ok(())
 }
 
-/// Full16 position words relative to `origin` and RGBA8 colours of every point of `batch`.
+/// Full16 position words relative to `origin` (none when `positions` is empty: a colours-only
+/// load) and RGBA8 colours of every point of `batch`.
 fn encode_into(
     batch: &PointBatch,
     origin: [f64; 3],
@@ -516,22 +643,65 @@ fn encode_into(
     positions: &mut [u32],
     colors: &mut [u32],
 ) {
-    let slots = positions.chunks_exact_mut(WORDS).zip(colors.iter_mut());
-    for (i, ((p, c), xyz)) in slots.zip(&batch.xyz).enumerate() {
-        p.copy_from_slice(&encode_point(*xyz, origin, NO_STEP, PointEncoding::Full16));
+    for (i, c) in colors.iter_mut().enumerate() {
         *c = point_color(batch, i, scale);
+    }
+    for (p, xyz) in positions.chunks_exact_mut(WORDS).zip(&batch.xyz) {
+        p.copy_from_slice(&encode_point(*xyz, origin, NO_STEP, PointEncoding::Full16));
     }
 }
 
-/// Hands a batch to the render thread (waiting while the queue is full).
+/// Hands a batch to the render thread (waiting while the queue is full): the points within
+/// the reservoir's capacity as they are, those past it with the slots they replace.
 fn send(job: &Job, batch: EncodedPoints) -> Result<(), Stop> {
-    if batch.colors.is_empty() {
+    if batch.read == 0 {
         return Ok(());
     }
-    job.shared
-        .loaded
-        .fetch_add(batch.colors.len() as u64, Ordering::Relaxed);
-    job.queue
-        .send(Message::Batch(batch))
-        .map_err(|_| Stop::Closed)
+    let capacity = job.reservoir.capacity();
+    let (first, n) = (batch.first, batch.read);
+    let words = batch.positions.len() / batch.colors.len().max(1);
+    let mut messages = Vec::with_capacity(2);
+    if first + n <= capacity {
+        messages.push(batch);
+    } else {
+        let inside = capacity.saturating_sub(first) as usize;
+        if inside > 0 {
+            messages.push(EncodedPoints {
+                first,
+                slots: None,
+                positions: batch.positions[..inside * words].to_vec(),
+                colors: batch.colors[..inside].to_vec(),
+                read: inside as u64,
+            });
+        }
+        // A later point replacing the same slot wins, also inside one batch.
+        let mut last: HashMap<u32, usize> = HashMap::new();
+        for k in inside..batch.colors.len() {
+            if let Some(slot) = job.reservoir.slot(first + k as u64) {
+                last.insert(slot as u32, k);
+            }
+        }
+        let mut kept: Vec<(u32, usize)> = last.into_iter().collect();
+        kept.sort_unstable();
+        let mut out = EncodedPoints {
+            first: first + inside as u64,
+            slots: Some(kept.iter().map(|(s, _)| *s).collect()),
+            positions: Vec::with_capacity(kept.len() * words),
+            colors: Vec::with_capacity(kept.len()),
+            read: n - inside as u64,
+        };
+        for (_, k) in &kept {
+            out.positions
+                .extend_from_slice(&batch.positions[k * words..(k + 1) * words]);
+            out.colors.push(batch.colors[*k]);
+        }
+        messages.push(out);
+    }
+    for m in messages {
+        job.shared.loaded.fetch_add(m.read, Ordering::Relaxed);
+        job.queue
+            .send(Message::Batch(m))
+            .map_err(|_| Stop::Closed)?;
+    }
+    Ok(())
 }

@@ -4,6 +4,7 @@
 //! the render thread nothing but copies.
 
 use pointlet_core::color::{point_color, sample_parts, ColorMode, ColorScale};
+use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::PointBatch;
 use pointlet_gpu::{compact_step, encode_point, PointEncoding};
 use pointlet_store::{Store, StreamKind};
@@ -31,6 +32,7 @@ fn stream_for(mode: ColorMode) -> Option<StreamKind> {
         ColorMode::ScanAngle => Some(StreamKind::ScanAngle),
         ColorMode::UserData => Some(StreamKind::UserData),
         ColorMode::Nir => Some(StreamKind::Nir),
+        ColorMode::Extra(_) => Some(StreamKind::ExtraBytes),
     }
 }
 
@@ -84,6 +86,8 @@ impl StoreSource {
                     .read_stream_raw(kind, i, range.clone(), &mut raw)
                     .map_err(|e| self.error(i, &range, e))?;
                 fill_column(&mut batch, kind, &raw);
+                // Extra bytes are read point by point at the store's width.
+                batch.layout.extra_bytes = self.store.header().layout.extra_bytes;
             }
             // The store lacks the attribute: every point draws grey.
             Some(_) => {}
@@ -146,11 +150,13 @@ impl PointletSource for StoreSource {
 /// A colour scale for `mode` fitted on a few pointlets spread over the store.
 pub fn fit_scale(store: &Store, mode: ColorMode) -> Result<ColorScale, pointlet_store::StoreError> {
     let sample = sample_parts(store.pointlets().len(), |i| store.read_pointlet(i))?;
-    let b = store.header().bounds;
-    Ok(ColorScale::fit(
+    let h = store.header();
+    let extras = ExtraAttributes::from_vlrs(&h.vlrs, usize::from(h.layout.extra_bytes));
+    Ok(ColorScale::fit_in(
         mode,
         &sample.iter().collect::<Vec<_>>(),
-        [b.min[2], b.max[2]],
+        [h.bounds.min[2], h.bounds.max[2]],
+        &extras,
     ))
 }
 
@@ -171,6 +177,7 @@ fn fill_column(batch: &mut PointBatch, kind: StreamKind, raw: &[u8]) {
         StreamKind::PointSourceId => batch.point_source_id = u16s().collect(),
         StreamKind::Classification => batch.classification = raw.to_vec(),
         StreamKind::UserData => batch.user_data = raw.to_vec(),
+        StreamKind::ExtraBytes => batch.extra_bytes = raw.to_vec(),
         StreamKind::Nir => batch.nir = u16s().collect(),
         StreamKind::ScanAngle => {
             batch.scan_angle = raw

@@ -6,6 +6,9 @@
 // shuffled vertex buffer) and §3.3, eq. 1 (permute) and eq. 2 (target = permute ∘ permute),
 // with P the largest prime ≡ 3 (mod 4) not above the buffer's size (0: identity).
 // WGSL has only 32-bit integers, so i² mod P is computed by doubling-and-adding mod P.
+// Two variations: `given_slots` takes each point's slot from src_slots instead (points past the
+// capacity of a buffer that keeps a uniform subset, core::progressive::Reservoir), and
+// `colors_only` rewrites only the colours (attribute switching, paper §3.5).
 
 struct Shuffle {
     // Slots of the whole shuffled buffer.
@@ -20,6 +23,10 @@ struct Shuffle {
     // Position words per point: 3 (full16) or 1 (compact8).
     words: u32,
     has_fine: u32,
+    given_slots: u32,
+    colors_only: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> shuffle: Shuffle;
@@ -29,6 +36,7 @@ struct Shuffle {
 @group(0) @binding(4) var<storage, read_write> dst_positions: array<u32>;
 @group(0) @binding(5) var<storage, read_write> dst_fine: array<u32>;
 @group(0) @binding(6) var<storage, read_write> dst_colors: array<u32>;
+@group(0) @binding(7) var<storage, read> src_slots: array<u32>;
 
 // (a + b) mod p for a, b < p: a wrapped sum is ≥ 2^32 > p, and subtracting p wraps it back.
 fn add_mod(a: u32, b: u32, p: u32) -> u32 {
@@ -75,15 +83,26 @@ fn shuffle_target(i: u32, p: u32) -> u32 {
 fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
            @builtin(num_workgroups) nwg: vec3<u32>) {
     let j = gid.x + gid.y * nwg.x * 256u;
-    if j >= shuffle.count || shuffle.first + j >= shuffle.n {
+    if j >= shuffle.count {
         return;
     }
-    let t = shuffle_target(shuffle.first + j, shuffle.prime);
-    if t < shuffle.first_slot || t - shuffle.first_slot >= shuffle.slots {
+    var t: u32;
+    if shuffle.given_slots != 0u {
+        t = src_slots[j];
+    } else {
+        if shuffle.first + j >= shuffle.n {
+            return;
+        }
+        t = shuffle_target(shuffle.first + j, shuffle.prime);
+    }
+    if t >= shuffle.n || t < shuffle.first_slot || t - shuffle.first_slot >= shuffle.slots {
         return;
     }
     let d = t - shuffle.first_slot;
     dst_colors[d] = src_colors[j];
+    if shuffle.colors_only != 0u {
+        return;
+    }
     for (var w = 0u; w < shuffle.words; w++) {
         dst_positions[d * shuffle.words + w] = src_positions[j * shuffle.words + w];
     }

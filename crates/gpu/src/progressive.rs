@@ -123,6 +123,7 @@ impl ProgressiveCloud {
             },
         )?;
         let shuffled = ShuffledBuffer::in_storage(&storage, points)?;
+        mark_empty(ctx, &storage)?;
         Ok(Self {
             points,
             page_size,
@@ -212,6 +213,56 @@ impl ProgressiveCloud {
     }
 }
 
+/// Marks every slot of `storage` empty (empty_slots.wgsl): the Fill pass skips slots that no
+/// point has been loaded into yet.
+fn mark_empty(ctx: &GpuContext, storage: &PointStorage) -> Result<(), GpuError> {
+    let device = &ctx.device;
+    let words = (ENCODING.position_bytes() / 4) as u32;
+    ctx.checked("marking the shuffled buffer empty", || {
+        let module = shaders::module(device, "empty slots", shaders::EMPTY_SLOTS);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("empty slots"),
+            layout: None,
+            module: &module,
+            entry_point: Some("mark"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let layout = pipeline.get_bind_group_layout(0);
+        let mut enc = device.create_command_encoder(&Default::default());
+        let groups: Vec<(wgpu::BindGroup, u32)> = storage
+            .chunks
+            .iter()
+            .map(|c| {
+                let slots = c.slots * storage.page_size;
+                let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("empty slots"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                ctx.queue
+                    .write_buffer(&uniform, 0, bytemuck::cast_slice(&[slots, words, 0, 0]));
+                let group =
+                    storage_group(device, "empty slots", &layout, &[&uniform, &c.positions]);
+                (group, slots)
+            })
+            .collect();
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("empty slots"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        for (group, slots) in &groups {
+            let [x, y] = grid(slots.div_ceil(256));
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        drop(pass);
+        ctx.queue.submit([enc.finish()]);
+    })
+}
+
 /// The slot ranges of a fill of `count` slots from `first` in a buffer of `points` slots: the
 /// range up to the end and the wrapped rest (empty ranges are `(0, 0)`); at most all slots.
 pub fn fill_ranges(points: u32, first: u32, count: u32) -> [(u64, u64); 2] {
@@ -270,6 +321,11 @@ impl ProgressiveState {
             has_list: false,
             next_fill: 0,
         })
+    }
+
+    /// The image size this state is for.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
     }
 
     /// Forgets the last frame and fills from slot 0 again (for another cloud).
@@ -355,6 +411,8 @@ fn point_pipeline(
     (pipeline, group1)
 }
 
+type Stamps<'a> = Option<wgpu::ComputePassTimestampWrites<'a>>;
+
 /// Pass 1: the previous frame's points (progressive_reproject.wgsl).
 struct ReprojectPass {
     pipeline: wgpu::ComputePipeline,
@@ -380,6 +438,7 @@ impl ReprojectPass {
         enc: &mut wgpu::CommandEncoder,
         cloud: &ProgressiveCloud,
         state: &ProgressiveState,
+        stamps: Stamps<'_>,
     ) {
         let group1 = storage_group(
             device,
@@ -392,7 +451,7 @@ impl ReprojectPass {
         let [x, y] = grid(pixels.div_ceil(WORKGROUP as u64) as u32);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("reproject"),
-            timestamp_writes: None,
+            timestamp_writes: stamps,
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(1, &group1, &[]);
@@ -421,10 +480,11 @@ impl FillPass {
         enc: &mut wgpu::CommandEncoder,
         cloud: &ProgressiveCloud,
         state: &ProgressiveState,
+        stamps: Stamps<'_>,
     ) {
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("fill"),
-            timestamp_writes: None,
+            timestamp_writes: stamps,
         });
         self.pipelines.record(
             device,
@@ -548,6 +608,26 @@ pub struct ProgressiveRenderer {
     lookup: LookupPass,
     prepare: PreparePass,
     screen: ScreenPasses,
+    /// Frames submitted so far (the ids timings carry).
+    frames: u64,
+    in_flight: std::collections::VecDeque<wgpu::SubmissionIndex>,
+}
+
+/// GPU time of a progressive frame's passes, from timestamp queries.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProgressiveTiming {
+    /// Redrawing last frame's points (0 when the frame did not reproject).
+    pub reproject_ms: f64,
+    /// Drawing the next S slots.
+    pub fill_ms: f64,
+    /// Resolve, occlusion, hole filling, EDL.
+    pub screen_ms: f64,
+}
+
+impl ProgressiveTiming {
+    pub fn total_ms(&self) -> f64 {
+        self.reproject_ms + self.fill_ms + self.screen_ms
+    }
 }
 
 impl ProgressiveRenderer {
@@ -578,7 +658,47 @@ impl ProgressiveRenderer {
             lookup: LookupPass::new(device, page_size),
             prepare: PreparePass::new(device),
             screen: ScreenPasses::new(device),
+            frames: 0,
+            in_flight: std::collections::VecDeque::new(),
         })
+    }
+
+    /// Blocks until at most `max` submitted frames are still running on the GPU (as a swap
+    /// chain would).
+    pub fn limit_frames_in_flight(&mut self, ctx: &GpuContext, max: usize) -> Result<(), GpuError> {
+        crate::renderer::limit_in_flight(ctx, &mut self.in_flight, max)
+    }
+
+    pub fn variant(&self) -> RasterVariant {
+        self.variant
+    }
+
+    /// Frames submitted so far; timings carry these numbers.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// GPU timings that have arrived (never blocks), oldest first, with their frame numbers;
+    /// none without timestamp queries.
+    pub fn poll_timings(
+        &mut self,
+        ctx: &GpuContext,
+        target: &mut RenderTarget,
+    ) -> Vec<(u64, ProgressiveTiming)> {
+        let Some(t) = target.timer.as_mut() else {
+            return Vec::new();
+        };
+        t.poll(ctx)
+            .into_iter()
+            .map(|(frame, [reproject, fill, screen, _], reprojected)| {
+                let timing = ProgressiveTiming {
+                    reproject_ms: if reprojected { reproject } else { 0.0 },
+                    fill_ms: fill,
+                    screen_ms: screen,
+                };
+                (frame, timing)
+            })
+            .collect()
     }
 
     /// Records and submits one frame of `cloud` seen by `camera` into `target`, advancing
@@ -616,13 +736,25 @@ impl ProgressiveRenderer {
         self.screen
             .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         let device = &ctx.device;
-        ctx.checked("rendering a progressive frame", || {
+        self.frames += 1;
+        let frame = self.frames;
+        let reproject = settings.reproject && state.has_list;
+        let submission = ctx.checked("rendering a progressive frame", || {
             let mut enc = device.create_command_encoder(&Default::default());
+            let timer = target.timer.as_ref();
+            let stamps = |begin: u32| {
+                timer.map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.queries,
+                    beginning_of_pass_write_index: Some(begin),
+                    end_of_pass_write_index: Some(begin + 1),
+                })
+            };
             enc.clear_buffer(&state.indexed, 0, None);
-            if settings.reproject && state.has_list {
-                self.reproject.record(device, &mut enc, cloud, state);
+            if reproject {
+                self.reproject
+                    .record(device, &mut enc, cloud, state, stamps(0));
             }
-            self.fill.record(device, &mut enc, cloud, state);
+            self.fill.record(device, &mut enc, cloud, state, stamps(2));
             self.lookup.record(device, &mut enc, cloud, state, target);
             self.screen.record(
                 device,
@@ -630,11 +762,22 @@ impl ProgressiveRenderer {
                 target,
                 PixelKind::Key64,
                 &settings.screen,
-                None,
+                stamps(4),
             );
             self.prepare.record(device, &mut enc, state);
-            ctx.queue.submit([enc.finish()]);
+            if let Some(t) = target.timer.as_mut() {
+                t.resolve(&mut enc, frame, reproject);
+            }
+            let submission = ctx.queue.submit([enc.finish()]);
+            if let Some(t) = target.timer.as_mut() {
+                t.after_submit();
+            }
+            submission
         })?;
+        self.in_flight.push_back(submission);
+        while self.in_flight.len() > 16 {
+            self.in_flight.pop_front();
+        }
         state.has_list = true;
         state.next_fill =
             ((state.next_fill as u64 + budget as u64) % cloud.points.max(1) as u64) as u32;

@@ -237,6 +237,8 @@ impl RasterPipelines {
         page_size: u32,
         index_keys: bool,
     ) -> Self {
+        // The shuffled buffer of progressive rendering (always Full16) has empty slots.
+        let skip_empty = index_keys && encoding == PointEncoding::Full16;
         let index_keys = ("INDEX_KEYS", index_keys as u32 as f64);
         let group0 = point_group_layout(device, encoding);
         let stage =
@@ -251,6 +253,9 @@ impl RasterPipelines {
                 });
                 let mut constants = vec![("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)];
                 constants.extend_from_slice(consts);
+                if skip_empty {
+                    constants.push(("SKIP_EMPTY", 1.0));
+                }
                 let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(label),
                     layout: Some(&layout),

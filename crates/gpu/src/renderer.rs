@@ -321,17 +321,7 @@ impl Renderer {
     /// Blocks until at most `max` submitted frames are still running on the GPU (as a swap
     /// chain would), so a render loop measures real throughput without queueing unboundedly.
     pub fn limit_frames_in_flight(&mut self, ctx: &GpuContext, max: usize) -> Result<(), GpuError> {
-        while self.in_flight.len() > max {
-            if let Some(index) = self.in_flight.pop_front() {
-                ctx.device
-                    .poll(wgpu::PollType::Wait {
-                        submission_index: Some(index),
-                        timeout: None,
-                    })
-                    .map_err(|e| GpuError::Device(format!("waiting for a frame: {e}")))?;
-            }
-        }
-        Ok(())
+        limit_in_flight(ctx, &mut self.in_flight, max)
     }
 
     /// GPU timings that have arrived (never blocks), oldest first, with their frame numbers.
@@ -376,4 +366,23 @@ impl Renderer {
             .find(|(f, _)| *f == last)
             .map(|(_, t)| t))
     }
+}
+
+/// Waits for the oldest of `in_flight` until at most `max` are left.
+pub(crate) fn limit_in_flight(
+    ctx: &GpuContext,
+    in_flight: &mut std::collections::VecDeque<wgpu::SubmissionIndex>,
+    max: usize,
+) -> Result<(), GpuError> {
+    while in_flight.len() > max {
+        if let Some(index) = in_flight.pop_front() {
+            ctx.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(index),
+                    timeout: None,
+                })
+                .map_err(|e| GpuError::Device(format!("waiting for a frame: {e}")))?;
+        }
+    }
+    Ok(())
 }

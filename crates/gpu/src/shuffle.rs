@@ -204,6 +204,9 @@ struct ShuffleUniform {
     slots: u32,
     words: u32,
     has_fine: u32,
+    explicit: u32,
+    colors_only: u32,
+    _pad: [u32; 2],
 }
 
 /// The staging streams, grown on demand.
@@ -212,6 +215,16 @@ struct Staging {
     positions: wgpu::Buffer,
     fine: wgpu::Buffer,
     colors: wgpu::Buffer,
+    slots: wgpu::Buffer,
+}
+
+/// Where the points of a scattered batch go.
+#[derive(Clone, Copy, Debug)]
+pub enum Targets<'a> {
+    /// Points of global indices `first..`: each to its slot under the buffer's permutation.
+    Permuted { first: u32 },
+    /// Point j to slot `slots[j]` (a reservoir's choice for points past the capacity).
+    Slots(&'a [u32]),
 }
 
 /// Scatters batches into a [`ShuffledBuffer`] (shuffle.wgsl).
@@ -249,6 +262,17 @@ impl ShufflePass {
         first: u32,
         batch: EncodedBatch<'_>,
     ) -> Result<(), GpuError> {
+        self.scatter_to(ctx, dst, Targets::Permuted { first }, batch)
+    }
+
+    /// Uploads `batch` and moves each point to its slot of `dst` as `targets` says.
+    pub fn scatter_to(
+        &mut self,
+        ctx: &GpuContext,
+        dst: &ShuffledBuffer,
+        targets: Targets<'_>,
+        batch: EncodedBatch<'_>,
+    ) -> Result<(), GpuError> {
         let count = batch.colors.len() as u64;
         let words = dst.encoding.position_bytes() / 4;
         let compact = dst.encoding == PointEncoding::Compact8;
@@ -263,21 +287,70 @@ impl ShufflePass {
                 batch.fine.len()
             )));
         }
+        self.dispatch(ctx, dst, targets, Some(batch), batch.colors)
+    }
+
+    /// Rewrites only the colours of the points `targets` names (attribute switching: the
+    /// positions stay where they are).
+    pub fn scatter_colors(
+        &mut self,
+        ctx: &GpuContext,
+        dst: &ShuffledBuffer,
+        targets: Targets<'_>,
+        colors: &[u32],
+    ) -> Result<(), GpuError> {
+        self.dispatch(ctx, dst, targets, None, colors)
+    }
+
+    fn dispatch(
+        &mut self,
+        ctx: &GpuContext,
+        dst: &ShuffledBuffer,
+        targets: Targets<'_>,
+        batch: Option<EncodedBatch<'_>>,
+        colors: &[u32],
+    ) -> Result<(), GpuError> {
+        let count = colors.len() as u64;
+        let words = dst.encoding.position_bytes() / 4;
+        let compact = dst.encoding == PointEncoding::Compact8;
         let n = dst.permutation.len();
-        if first as u64 + count > n {
-            return Err(GpuError::InvalidInput(format!(
-                "points {first}..{} do not fit a shuffled buffer of {n} slots",
-                first as u64 + count
-            )));
+        let (first, slots) = match targets {
+            Targets::Permuted { first } => (first, None),
+            Targets::Slots(s) => (0, Some(s)),
+        };
+        match slots {
+            None if first as u64 + count > n => {
+                return Err(GpuError::InvalidInput(format!(
+                    "points {first}..{} do not fit a shuffled buffer of {n} slots",
+                    first as u64 + count
+                )));
+            }
+            Some(s) if s.len() as u64 != count => {
+                return Err(GpuError::InvalidInput(format!(
+                    "{} slots given for a batch of {count} points",
+                    s.len()
+                )));
+            }
+            Some(s) if s.iter().any(|&t| t as u64 >= n) => {
+                return Err(GpuError::InvalidInput(format!(
+                    "a slot beyond the {n} of the shuffled buffer"
+                )));
+            }
+            _ => {}
         }
         if count == 0 {
             return Ok(());
         }
         let staging = staging_for(&mut self.staging, ctx, count, words)?;
         let q = &ctx.queue;
-        q.write_buffer(&staging.positions, 0, bytemuck::cast_slice(batch.positions));
-        q.write_buffer(&staging.fine, 0, bytemuck::cast_slice(batch.fine));
-        q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(batch.colors));
+        if let Some(b) = &batch {
+            q.write_buffer(&staging.positions, 0, bytemuck::cast_slice(b.positions));
+            q.write_buffer(&staging.fine, 0, bytemuck::cast_slice(b.fine));
+        }
+        q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(colors));
+        if let Some(s) = slots {
+            q.write_buffer(&staging.slots, 0, bytemuck::cast_slice(s));
+        }
         let layout = self.pipeline.get_bind_group_layout(0);
         let mut enc = ctx
             .device
@@ -297,6 +370,9 @@ impl ShufflePass {
                         slots: c.slots,
                         words: words as u32,
                         has_fine: compact as u32,
+                        explicit: slots.is_some() as u32,
+                        colors_only: batch.is_none() as u32,
+                        _pad: [0; 2],
                     };
                     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("shuffle uniform"),
@@ -315,6 +391,7 @@ impl ShufflePass {
                         &c.positions,
                         fine_dst,
                         &c.colors,
+                        &staging.slots,
                     ];
                     storage_group(&ctx.device, "shuffle", &layout, &buffers)
                 })
@@ -371,6 +448,7 @@ fn staging_for<'s>(
                 positions: buffer("shuffle staging positions", capacity * words * 4),
                 fine: buffer("shuffle staging fine", capacity * 4),
                 colors: buffer("shuffle staging colours", capacity * 4),
+                slots: buffer("shuffle staging slots", capacity * 4),
             })?
         }
     };

@@ -10,7 +10,8 @@ use crate::view::View;
 use crate::{Automation, Input, ViewerConfig, ViewerError};
 use pointlet_core::color::{default_color_of_parts, ColorMode, DefaultColor};
 use pointlet_core::PointLayout;
-use pointlet_engine::{SceneConfig, VirtualScene};
+use pointlet_engine::progressive::{LoadColor, LoadConfig, ProgressiveLoad};
+use pointlet_engine::{ProgressiveConfig, ProgressiveScene, SceneConfig, VirtualScene};
 use pointlet_gpu::{AdapterRequest, GpuContext, RasterVariant};
 use std::sync::Arc;
 use std::time::Instant;
@@ -46,8 +47,18 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
             )));
         }
     }
-    // Raw files are read before the window opens (streaming them is a later issue).
+    // Point files drawn by a closest-point rasterizer load while they are drawn (once the
+    // window is open); for the others they are read before it opens.
+    let mut loading = None;
     let memory = match &config.input {
+        Input::File { path, read } if config.settings.variant.accumulates() => {
+            // Loading starts now; the window and GPU open meanwhile.
+            let progressive = progressive_config(&config, read, config.settings.variant);
+            let load = ProgressiveScene::start_load(path, &progressive)
+                .map_err(|e| ViewerError::Load(e.to_string()))?;
+            loading = Some((load, progressive));
+            None
+        }
         Input::File { path, read } => {
             Some(MemoryData::load(Source::File { path, read }, config.order)?)
         }
@@ -68,6 +79,7 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
     let mut app = App {
         config,
         memory,
+        loading,
         state: None,
         error: None,
         started: Instant::now(),
@@ -85,6 +97,8 @@ struct App {
     config: ViewerConfig,
     /// In-memory points waiting for the GPU (taken when the window opens).
     memory: Option<MemoryData>,
+    /// A point file loading for the progressive scene (taken when the window opens).
+    loading: Option<(ProgressiveLoad, ProgressiveConfig)>,
     state: Option<Running>,
     error: Option<ViewerError>,
     started: Instant,
@@ -177,6 +191,35 @@ impl App {
                 .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?;
                 (Content::Store(Box::new(scene)), color)
             }
+            (Input::File { path, .. }, None) => {
+                let Some((load, mut config)) = self.loading.take() else {
+                    return Err(ViewerError::Load("the file was not opened".into()));
+                };
+                let wanted = c.settings.variant.fallback(&ctx.caps);
+                config.variant = if wanted.accumulates() {
+                    wanted
+                } else {
+                    RasterVariant::ReduceEarlyZ.fallback(&ctx.caps)
+                };
+                // The engine's errors name the file already.
+                let scene = ProgressiveScene::with_load(&ctx, load, config)
+                    .map_err(|e| ViewerError::Load(e.to_string()))?;
+                for n in scene.notes() {
+                    eprintln!("note: {}: {n}", path.display());
+                }
+                // The load thread picks the default colouring from its first sample.
+                let color = match scene.color_within(std::time::Duration::from_secs(10)) {
+                    Some(LoadColor {
+                        default: Some(d), ..
+                    }) => {
+                        eprintln!("note: {}: {d}", path.display());
+                        d.mode
+                    }
+                    Some(l) => l.scale.mode,
+                    None => c.color.unwrap_or(ColorMode::Elevation),
+                };
+                (Content::Progressive(Box::new(scene)), color)
+            }
             (_, Some(data)) => {
                 let color =
                     usable_color(&data.layout, c.color, &data.name, || Ok(data.default_color))?;
@@ -220,6 +263,26 @@ impl App {
             frames: 0,
             frames_done_at: None,
         })
+    }
+}
+
+/// How the viewer draws a point file while it loads.
+fn progressive_config(
+    c: &ViewerConfig,
+    read: &pointlet_io::ReadOptions,
+    variant: RasterVariant,
+) -> ProgressiveConfig {
+    ProgressiveConfig {
+        load: LoadConfig {
+            color: c.color,
+            read: read.clone(),
+            ..Default::default()
+        },
+        variant,
+        page_size: c.page_size,
+        vram_budget: c.store.vram,
+        target_frame_ms: 1000.0 / c.target_fps,
+        ..Default::default()
     }
 }
 

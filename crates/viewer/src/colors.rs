@@ -133,6 +133,7 @@ mod tests {
             gamma: 1.0,
             rgb_8bit: true,
             ramp: Ramp::Viridis,
+            extra: None,
         }
     }
 

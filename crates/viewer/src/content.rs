@@ -1,12 +1,13 @@
-//! What is on screen: in-memory points in a static `GpuCloud`, or a store drawn through the
-//! virtualized `VirtualScene`. One interface for drawing, picking and recolouring either.
+//! What is on screen: in-memory points in a static `GpuCloud`, a store drawn through the
+//! virtualized `VirtualScene`, or a point file drawn while it loads (`ProgressiveScene`). One
+//! interface for drawing, picking and recolouring each.
 
 use crate::colors::{available_modes, legend, ColorState, LegendEntry};
 use crate::memory::MemoryData;
 use crate::ViewerError;
 use pointlet_core::color::ColorScale;
 use pointlet_core::{Aabb, Camera};
-use pointlet_engine::{FrameReport, VirtualScene};
+use pointlet_engine::{FrameReport, ProgressiveReport, ProgressiveScene, VirtualScene};
 use pointlet_gpu::{
     GpuCloud, GpuContext, PointEncoding, RasterVariant, RenderSettings, RenderTarget, Renderer,
 };
@@ -17,6 +18,7 @@ pub const PICK_RADIUS: u32 = 6;
 pub enum Content {
     Memory(Box<InMemory>),
     Store(Box<VirtualScene>),
+    Progressive(Box<ProgressiveScene>),
 }
 
 /// Points held in RAM with their attribute columns, and their GPU copy.
@@ -33,6 +35,8 @@ pub struct Drawn {
     pub converged: bool,
     /// The virtualized scene's account of the frame (stores only).
     pub report: Option<FrameReport>,
+    /// The progressive scene's account of the frame (point files loading while drawn).
+    pub progressive: Option<ProgressiveReport>,
 }
 
 impl Content {
@@ -54,6 +58,7 @@ impl Content {
         match self {
             Content::Memory(m) => m.data.name.clone(),
             Content::Store(s) => s.store().path().display().to_string(),
+            Content::Progressive(p) => p.path().display().to_string(),
         }
     }
 
@@ -61,6 +66,7 @@ impl Content {
         match self {
             Content::Memory(m) => m.data.bounds,
             Content::Store(s) => s.bounds(),
+            Content::Progressive(p) => p.bounds(),
         }
     }
 
@@ -68,6 +74,7 @@ impl Content {
         match self {
             Content::Memory(m) => m.data.len() as u64,
             Content::Store(s) => s.points(),
+            Content::Progressive(p) => p.points(),
         }
     }
 
@@ -76,12 +83,17 @@ impl Content {
         match self {
             Content::Memory(m) => m.cloud.point_bytes(),
             Content::Store(s) => s.gpu_bytes(),
+            Content::Progressive(p) => p.gpu_bytes(),
         }
     }
 
     /// Whether `variant` can draw this content (the point-list baseline draws static clouds).
     pub fn supports(&self, variant: RasterVariant) -> bool {
-        !(matches!(self, Content::Store(_)) && variant == RasterVariant::HwPoints)
+        match self {
+            Content::Memory(_) => true,
+            Content::Store(_) => variant != RasterVariant::HwPoints,
+            Content::Progressive(_) => variant.accumulates(),
+        }
     }
 
     /// The colouring state to start from: `scale` is already on the GPU.
@@ -91,6 +103,7 @@ impl Content {
             Content::Store(s) => {
                 ColorState::new(available_modes(&s.store().header().layout), scale)
             }
+            Content::Progressive(p) => ColorState::new(available_modes(&p.layout()), scale),
         }
     }
 
@@ -100,13 +113,21 @@ impl Content {
             Content::Memory(m) => Ok(m.data.fitted(mode)),
             Content::Store(s) => pointlet_engine::fit_scale(s.store(), mode)
                 .map_err(|e| ViewerError::Load(e.to_string())),
+            // The load thread fits the scale on the file itself: only the mode counts.
+            Content::Progressive(p) => Ok(match p.color() {
+                Some(c) if c.scale.mode == mode => c.scale,
+                _ => {
+                    let b = p.bounds();
+                    ColorScale::fit(mode, &[], [b.min[2], b.max[2]])
+                }
+            }),
         }
     }
 
     pub fn legend(&self) -> Vec<LegendEntry> {
         match self {
             Content::Memory(m) => legend(Some(&m.data.class_counts)),
-            Content::Store(_) => legend(None),
+            Content::Store(_) | Content::Progressive(_) => legend(None),
         }
     }
 
@@ -122,6 +143,13 @@ impl Content {
             Content::Store(s) => s
                 .set_color_scale(*scale)
                 .map_err(|e| ViewerError::Gpu(e.to_string())),
+            // The file is read again for the colours alone (loaded points keep their positions).
+            Content::Progressive(p) if p.color().is_some_and(|c| c.scale.mode == scale.mode) => {
+                Ok(())
+            }
+            Content::Progressive(p) => p
+                .recolor(scale.mode)
+                .map_err(|e| ViewerError::Load(format!("recolouring: {e}"))),
         }
     }
 
@@ -142,6 +170,7 @@ impl Content {
                     points: m.cloud.points,
                     converged: true,
                     report: None,
+                    progressive: None,
                 })
             }
             Content::Store(s) => {
@@ -152,6 +181,32 @@ impl Content {
                     points: report.drawn_points,
                     converged: report.converged,
                     report: Some(report),
+                    progressive: None,
+                })
+            }
+            Content::Progressive(p) => {
+                if p.variant() != settings.variant {
+                    p.set_variant(ctx, settings.variant)
+                        .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+                }
+                let report = p
+                    .frame(
+                        ctx,
+                        camera,
+                        &settings.screen,
+                        &settings.hidden_classes,
+                        target,
+                    )
+                    .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+                if let Some(f) = &report.failure {
+                    // The points read before the damage stay on screen.
+                    eprintln!("error: {f}");
+                }
+                Ok(Drawn {
+                    points: report.progress.shown(),
+                    converged: report.converged,
+                    report: None,
+                    progressive: Some(report),
                 })
             }
         }
@@ -189,6 +244,9 @@ impl Content {
                     .map_err(|e| ViewerError::Gpu(format!("picking: {e}")))?;
                 Ok(hit.map(|p| p.position))
             }
+            // The shuffled buffer has no pick pass yet (measuring needs a store or a file
+            // read whole).
+            Content::Progressive(_) => Ok(None),
         }
     }
 }

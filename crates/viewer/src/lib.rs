@@ -47,7 +47,8 @@ pub enum ViewerError {
 pub enum Input {
     /// A `.pointlet` store, drawn through the virtualized scene.
     Store(PathBuf),
-    /// Any point file, read whole into memory.
+    /// Any point file: drawn while it loads by the closest-point rasterizers, read whole into
+    /// memory for the others.
     File {
         path: PathBuf,
         read: pointlet_io::ReadOptions,
@@ -56,7 +57,8 @@ pub enum Input {
     Demo { points: u64, seed: u64 },
 }
 
-/// Budgets and LoD of the virtualized scene (stores only).
+/// Budgets and LoD of the virtualized scene (stores; `vram` also bounds a point file's
+/// shuffled buffer).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StoreBudgets {
     pub vram: u64,
@@ -97,6 +99,8 @@ pub struct ViewerConfig {
     pub automation: Option<Automation>,
     /// Wait for the display's refresh between frames.
     pub vsync: bool,
+    /// Point files drawn while loading: the frame rate the adaptive fill budget aims at.
+    pub target_fps: f64,
 }
 
 /// Opens the window and runs until it is closed (or the automation is done).

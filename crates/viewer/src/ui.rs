@@ -232,7 +232,8 @@ fn rendering(p: &mut egui::Ui, view: &mut View) {
                 });
             // HQS blends the points near the closest one instead of keeping only the closest.
             let mut hqs = matches!(current, RasterVariant::Hqs | RasterVariant::Hqs1r);
-            if s.checkbox(&mut hqs, "high-quality shading (HQS)").changed() {
+            let blendable = view.content.supports(RasterVariant::Hqs1r);
+            if blendable && s.checkbox(&mut hqs, "high-quality shading (HQS)").changed() {
                 let wanted = if hqs {
                     RasterVariant::Hqs1r
                 } else {
@@ -377,8 +378,14 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
                 c.ui_ms, c.draw_ms, c.present_ms
             ));
             if let Some(t) = view.stats.gpu {
+                let first = if view.drawn.progressive.is_some() {
+                    "reproject"
+                } else {
+                    "LoD"
+                };
+                let fill = if first == "LoD" { "raster" } else { "fill" };
                 w.label(format!(
-                    "GPU: LoD {:.2} · raster {:.2} · screen {:.2} ms",
+                    "GPU: {first} {:.2} · {fill} {:.2} · screen {:.2} ms",
                     t.lod_ms, t.raster_ms, t.screen_ms
                 ));
             }
@@ -433,8 +440,65 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
                 (crate::content::Content::Store(_), None) => {
                     w.label(format!("VRAM {}", format_bytes(vram)));
                 }
+                (crate::content::Content::Progressive(scene), _) => {
+                    progressive_status(w, scene, view.drawn.progressive.as_ref(), vram);
+                }
             }
         });
+}
+
+/// Loading of a point file drawn while it loads: points in / total, throughput, the fill
+/// budget, and what a file larger than the VRAM budget shows.
+fn progressive_status(
+    w: &mut egui::Ui,
+    scene: &pointlet_engine::ProgressiveScene,
+    report: Option<&pointlet_engine::ProgressiveReport>,
+    vram: u64,
+) {
+    use pointlet_core::size::format_count;
+    let p = scene.progress();
+    w.label(format!(
+        "VRAM {} (shuffled buffer and frame)",
+        format_bytes(vram)
+    ));
+    let share = p.uploaded as f64 / p.total.max(1) as f64;
+    let text = if p.is_finished() {
+        format!(
+            "loaded {} points in {:.1} s ({:.1} M points/s)",
+            format_count(p.uploaded),
+            p.elapsed.as_secs_f64(),
+            p.points_per_s() / 1e6
+        )
+    } else {
+        format!(
+            "loading {} / {} points · {:.1} M points/s",
+            format_count(p.uploaded),
+            format_count(p.total),
+            p.points_per_s() / 1e6
+        )
+    };
+    w.add(egui::ProgressBar::new(share.min(1.0) as f32).text(text));
+    if let Some(r) = report {
+        w.label(format!(
+            "fill budget {} points per frame ({:.1} % of the buffer){}",
+            format_count(r.fill_budget),
+            100.0 * r.fill_budget as f64 / scene.slots().max(1) as f64,
+            if r.recoloring { " · recolouring" } else { "" }
+        ));
+    }
+    if scene.slots() < scene.points() {
+        w.label(
+            RichText::new(format!(
+                "showing {} of {} points; convert for full detail",
+                format_count(scene.slots()),
+                format_count(scene.points())
+            ))
+            .color(Color32::YELLOW),
+        );
+    }
+    if let Some(f) = scene.failure() {
+        w.label(RichText::new(format!("read error: {f}")).color(Color32::LIGHT_RED));
+    }
 }
 
 /// Frame times of the history as a bar graph, scaled to the slowest frame (at least 33 ms),

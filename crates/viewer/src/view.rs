@@ -111,7 +111,15 @@ impl View {
         )?;
         self.last_view = Some((camera, self.settings, self.size()));
         self.stats.frame(now);
-        if self.stats.timing_due(now) {
+        if let Some((_, t)) = self.drawn.progressive.as_ref().and_then(|r| r.timing) {
+            // The progressive scene reads its own timestamps (its fill budget needs them).
+            self.stats.gpu = Some(pointlet_gpu::FrameTiming {
+                lod_ms: t.reproject_ms,
+                raster_ms: t.fill_ms,
+                screen_ms: t.screen_ms,
+                upload_ms: 0.0,
+            });
+        } else if self.drawn.progressive.is_none() && self.stats.timing_due(now) {
             // Waits for this frame's GPU work, a few times a second only.
             self.stats.gpu = self
                 .renderer

@@ -1,0 +1,303 @@
+//! `pointlet bench scan.laz`: a point file flown along a camera path while it loads through the
+//! progressive path. Besides the frame statistics of a store's bench: time to the first frame
+//! with points, load throughput, time until fully loaded, time to converge once the path ends,
+//! and the share of the points drawn per frame (S / N).
+
+use crate::bench_cmd::{write_series, Args};
+use crate::progressive_cmd;
+use anyhow::{bail, Context, Result};
+use pointlet_core::path::CameraPath;
+use pointlet_gpu::RenderTarget;
+use pointlet_report::{FrameStats, Series, StageBreakdown};
+use serde::Serialize;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Longest wait for a still camera to converge after the path.
+const CONVERGE_LIMIT: Duration = Duration::from_secs(600);
+
+#[derive(Serialize)]
+struct Row {
+    frame: u32,
+    /// Seconds since the file was opened.
+    time_s: f64,
+    frame_ms: f64,
+    reproject_ms: f64,
+    fill_ms: f64,
+    screen_ms: f64,
+    /// S: slots the Fill pass drew.
+    fill_budget: u64,
+    /// S / N.
+    share_drawn: f64,
+    points_uploaded: u64,
+    points_loaded: u64,
+    loading: bool,
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    file: String,
+    file_bytes: u64,
+    points: u64,
+    /// Slots of the shuffled buffer (fewer than `points` past the VRAM budget).
+    slots: u64,
+    adapter: String,
+    variant: &'static str,
+    width: u32,
+    height: u32,
+    vram_budget: u64,
+    target_fps: f64,
+    realtime: bool,
+    /// From opening the file to the end of the first frame that showed points.
+    first_frame_s: f64,
+    /// From opening the file until its last point was in the shuffled buffer.
+    loaded_s: f64,
+    load_points_per_s: f64,
+    load_mb_per_s: f64,
+    /// From the end of the path until the still camera's image was final.
+    converge_s: f64,
+    converge_frames: u64,
+    /// Mean of S / N over the path.
+    share_drawn: f64,
+    /// Frame statistics of the frames drawn while loading.
+    loading_stats: Option<FrameStats>,
+    stats: &'a FrameStats,
+    stages: &'a [pointlet_report::StageSummary],
+    frames: &'a [Row],
+}
+
+pub fn run(args: &Args) -> Result<()> {
+    let file = args.store.as_path();
+    let (ctx, variant) = crate::render_cmd::open_gpu(&args.draw)?;
+    let color = progressive_cmd::resolve_color(file, &args.read, args.draw.color.as_ref())?;
+    let target_fps = args.target_fps.unwrap_or(60.0);
+    let config = progressive_cmd::config(
+        &args.draw,
+        &args.read,
+        variant,
+        color,
+        args.virtual_args.vram_budget,
+        target_fps,
+    );
+    let vram_budget = config.vram_budget;
+    let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
+    let began = Instant::now();
+    let mut scene = progressive_cmd::open(&ctx, file, config)?;
+    let bounds = scene.bounds();
+    let path = if args.path == "orbit" {
+        CameraPath::orbit(
+            &bounds,
+            args.orbit_seconds,
+            args.frames as f64 / args.orbit_seconds,
+        )?
+    } else {
+        CameraPath::load(Path::new(&args.path))?
+    };
+    let cameras = path.sample(args.frames, &bounds);
+    let screen = args.draw.screen();
+    let hidden = [0u32; 8];
+    let slots = scene.slots().max(1);
+    let mut rows: Vec<Row> = Vec::with_capacity(cameras.len());
+    let mut first_frame_s = None;
+    let mut loaded_s = None;
+    let mut failure = None;
+    let flight = Instant::now();
+    let mut last_start = flight;
+    // Timings arrive frames later; frame ids count from 1 like the rows.
+    let record = |rows: &mut Vec<Row>, report: &pointlet_engine::ProgressiveReport| {
+        if let Some((frame, t)) = report.timing {
+            if let Some(r) = frame.checked_sub(1).and_then(|k| rows.get_mut(k as usize)) {
+                r.reproject_ms = t.reproject_ms;
+                r.fill_ms = t.fill_ms;
+                r.screen_ms = t.screen_ms;
+            }
+        }
+    };
+    for k in 0u32.. {
+        scene.limit_frames_in_flight(&ctx, args.in_flight)?;
+        let start = Instant::now();
+        let t = (start - flight).as_secs_f64();
+        let camera = if args.realtime {
+            if t >= path.duration() {
+                break;
+            }
+            path.camera_at(t, &bounds)
+        } else {
+            match cameras.get(k as usize) {
+                Some(c) => *c,
+                None => break,
+            }
+        };
+        if let Some(prev) = rows.last_mut() {
+            prev.frame_ms = (start - last_start).as_secs_f64() * 1e3;
+        }
+        last_start = start;
+        let report = scene.frame(&ctx, &camera, &screen, &hidden, &mut target)?;
+        if report.failure.is_some() {
+            failure = report.failure.clone();
+        }
+        let loading = !report.progress.is_finished();
+        if first_frame_s.is_none() && report.progress.uploaded > 0 {
+            // Once: the frame must have reached the screen to count.
+            ctx.wait()?;
+            first_frame_s = Some(began.elapsed().as_secs_f64());
+        }
+        if loaded_s.is_none() && !loading {
+            loaded_s = Some(began.elapsed().as_secs_f64());
+        }
+        rows.push(Row {
+            frame: k,
+            time_s: (start - began).as_secs_f64(),
+            frame_ms: 0.0,
+            reproject_ms: 0.0,
+            fill_ms: 0.0,
+            screen_ms: 0.0,
+            fill_budget: report.fill_budget,
+            share_drawn: report.fill_budget as f64 / slots as f64,
+            points_uploaded: report.uploaded_points,
+            points_loaded: report.progress.uploaded,
+            loading,
+        });
+        record(&mut rows, &report);
+    }
+    if let Some(prev) = rows.last_mut() {
+        prev.frame_ms = last_start.elapsed().as_secs_f64() * 1e3;
+    }
+    if let Some(f) = failure {
+        bail!("{f}");
+    }
+    // The path ended: the last camera stays still until the image is final (loading first,
+    // if the path was shorter than the load).
+    let still = cameras
+        .last()
+        .copied()
+        .unwrap_or_else(|| path.camera_at(path.duration(), &bounds));
+    let settle = Instant::now();
+    let mut converge_frames = 0u64;
+    loop {
+        scene.limit_frames_in_flight(&ctx, args.in_flight)?;
+        let report = scene.frame(&ctx, &still, &screen, &hidden, &mut target)?;
+        converge_frames += 1;
+        if let Some(f) = report.failure {
+            bail!("{f}");
+        }
+        if first_frame_s.is_none() && report.progress.uploaded > 0 {
+            ctx.wait()?;
+            first_frame_s = Some(began.elapsed().as_secs_f64());
+        }
+        if loaded_s.is_none() && report.progress.is_finished() {
+            loaded_s = Some(began.elapsed().as_secs_f64());
+        }
+        if report.converged {
+            break;
+        }
+        if settle.elapsed() > CONVERGE_LIMIT {
+            bail!(
+                "{}: the still view did not converge within {} s",
+                file.display(),
+                CONVERGE_LIMIT.as_secs()
+            );
+        }
+    }
+    ctx.wait()?;
+    let converge_s = settle.elapsed().as_secs_f64();
+    let progress = scene.progress();
+    let times: Vec<f64> = rows.iter().map(|r| r.frame_ms.max(1e-6)).collect();
+    let stats = FrameStats::from_frame_times_ms(&times)?;
+    let loading_times: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.loading)
+        .map(|r| r.frame_ms.max(1e-6))
+        .collect();
+    let loading_stats = (!loading_times.is_empty())
+        .then(|| FrameStats::from_frame_times_ms(&loading_times))
+        .transpose()?;
+    let mut stages = StageBreakdown::new(["reproject (GPU)", "fill (GPU)", "screen (GPU)"])?;
+    for r in &rows {
+        stages.push_frame(&[r.reproject_ms, r.fill_ms, r.screen_ms])?;
+    }
+    let stage_table = stages.summary();
+    let share_drawn = rows.iter().map(|r| r.share_drawn).sum::<f64>() / rows.len().max(1) as f64;
+    let first_frame_s = first_frame_s.unwrap_or(f64::NAN);
+    let loaded_s = loaded_s.unwrap_or(f64::NAN);
+    println!(
+        "{}: {} points ({} in the GPU buffer), {}×{}, {} on {}, target {target_fps} fps",
+        file.display(),
+        scene.points(),
+        scene.slots(),
+        args.width,
+        args.height,
+        variant.name(),
+        ctx.describe()
+    );
+    println!("{stats}");
+    if let Some(s) = &loading_stats {
+        println!("while loading: {s}");
+    }
+    println!("stage breakdown (ms per frame):");
+    for s in &stage_table {
+        println!(
+            "  {:<18} avg {:>8.3}  median {:>8.3}  max {:>8.3}",
+            s.name, s.avg_ms, s.median_ms, s.max_ms
+        );
+    }
+    println!(
+        "loading: first frame after {:.3} s, fully loaded after {:.3} s ({:.1} M points/s, {:.0} MB/s)",
+        first_frame_s,
+        loaded_s,
+        progress.points_per_s() / 1e6,
+        progress.mb_per_s()
+    );
+    println!(
+        "converged {converge_s:.3} s ({converge_frames} frames) after the path ended; \
+         {:.2} % of the points drawn per frame on average",
+        share_drawn * 100.0
+    );
+    if let Some(p) = &args.plot {
+        write_plot(p, &rows)?;
+    }
+    if let Some(p) = &args.json {
+        let summary = Summary {
+            file: file.display().to_string(),
+            file_bytes: progress.file_bytes,
+            points: scene.points(),
+            slots: scene.slots(),
+            adapter: ctx.describe(),
+            variant: variant.name(),
+            width: args.width,
+            height: args.height,
+            vram_budget,
+            target_fps,
+            realtime: args.realtime,
+            first_frame_s,
+            loaded_s,
+            load_points_per_s: progress.points_per_s(),
+            load_mb_per_s: progress.mb_per_s(),
+            converge_s,
+            converge_frames,
+            share_drawn,
+            loading_stats,
+            stats: &stats,
+            stages: &stage_table,
+            frames: &rows,
+        };
+        std::fs::write(p, serde_json::to_string_pretty(&summary)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
+
+fn write_plot(path: &Path, rows: &[Row]) -> Result<()> {
+    let series = |name: &str, k: usize, f: &dyn Fn(&Row) -> f64| Series {
+        name: name.to_string(),
+        color: pointlet_report::palette(k),
+        points: rows.iter().map(|r| (r.frame as f64, f(r))).collect(),
+    };
+    let all = [
+        series("frame", 0, &|r| r.frame_ms),
+        series("fill (GPU)", 1, &|r| r.fill_ms),
+        series("reproject (GPU)", 2, &|r| r.reproject_ms),
+        series("screen (GPU)", 4, &|r| r.screen_ms),
+    ];
+    write_series(path, "frame time along the path (progressive)", &all)
+}

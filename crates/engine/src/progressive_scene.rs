@@ -1,0 +1,495 @@
+//! A point file drawn while it loads (progressive-rendering paper §3): the load thread of
+//! [`ProgressiveLoad`] feeds the shuffled buffer of a [`ProgressiveCloud`], and every frame
+//! reprojects the last frame's points, fills in the next S slots and prepares the list for
+//! the next frame. S adapts to a target frame time from GPU timestamps (§3.4.1, [`FillBudget`]).
+//! A still camera converges to exactly the image of drawing every point once S slots summed
+//! over the frames since the camera (or the data) last changed cover the buffer.
+
+use crate::progressive::{LoadColor, LoadConfig, LoadProgress, ProgressiveLoad};
+use crate::EngineError;
+use pointlet_core::color::ColorMode;
+use pointlet_core::{Aabb, Camera};
+use pointlet_gpu::progressive::{
+    ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState, ProgressiveTiming,
+};
+use pointlet_gpu::shuffle::{ShufflePass, ShuffledContents};
+use pointlet_gpu::{GpuContext, RasterVariant, RenderTarget, ScreenSettings};
+use std::collections::VecDeque;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// GPU bytes of one slot of the shuffled buffer (Full16 position + colour).
+pub const SLOT_BYTES: u64 = 16;
+
+/// How to open and draw a point file progressively.
+#[derive(Clone, Debug)]
+pub struct ProgressiveConfig {
+    /// Colouring, batching and reading; `max_slots` is set from `vram_budget`.
+    pub load: LoadConfig,
+    /// A closest-point rasterizer (atomic-min, early-z, reduce, reduce-early-z, dedup).
+    pub variant: RasterVariant,
+    pub page_size: u32,
+    /// GPU memory the shuffled buffer may take: beyond it a uniform subset is kept.
+    pub vram_budget: u64,
+    /// The frame time the adaptive fill budget aims at.
+    pub target_frame_ms: f64,
+    /// A fixed S instead of the adaptive one (`render` draws every slot each frame).
+    pub fixed_budget: Option<u64>,
+    /// Redraw last frame's points before filling (off: every frame starts empty).
+    pub reproject: bool,
+    /// Ready batches scattered per frame at most (bounds a frame's upload work).
+    pub batches_per_frame: usize,
+}
+
+impl Default for ProgressiveConfig {
+    fn default() -> Self {
+        Self {
+            load: LoadConfig::default(),
+            variant: RasterVariant::AtomicMin,
+            page_size: 4096,
+            vram_budget: 2 << 30,
+            target_frame_ms: 1000.0 / 60.0,
+            fixed_budget: None,
+            reproject: true,
+            batches_per_frame: 8,
+        }
+    }
+}
+
+/// The fill budget S of §3.4.1: after each timed frame, S is scaled so that the reproject,
+/// fill and screen passes take `target_ms` (at most doubling or halving per step, so one
+/// noisy timestamp cannot swing it), and kept between a floor that converges a still view
+/// within about ten seconds at the target rate and every slot.
+#[derive(Clone, Debug)]
+pub struct FillBudget {
+    target_ms: f64,
+    floor: u64,
+    slots: u64,
+    current: u64,
+}
+
+impl FillBudget {
+    /// Share of the target frame time given to the passes (the rest: CPU, presenting).
+    const HEADROOM: f64 = 0.85;
+    /// Floor: the buffer is covered in at most this many frames.
+    const FRAMES_TO_COVER: u64 = 600;
+    const MIN_FLOOR: u64 = 1 << 16;
+
+    pub fn new(slots: u64, target_ms: f64) -> Self {
+        let floor = (slots / Self::FRAMES_TO_COVER)
+            .max(Self::MIN_FLOOR)
+            .min(slots);
+        Self {
+            target_ms,
+            floor,
+            slots,
+            current: (1 << 20).clamp(floor, slots.max(floor)),
+        }
+    }
+
+    pub fn current(&self) -> u64 {
+        self.current
+    }
+
+    pub fn floor(&self) -> u64 {
+        self.floor
+    }
+
+    /// A frame that filled `used` slots took `timing` on the GPU.
+    pub fn observe(&mut self, used: u64, timing: &ProgressiveTiming) {
+        if used == 0 || timing.fill_ms <= 0.0 {
+            return;
+        }
+        let fixed = timing.reproject_ms + timing.screen_ms;
+        let available = (self.target_ms * Self::HEADROOM - fixed).max(0.0);
+        let wanted = used as f64 * (available / timing.fill_ms);
+        let next = wanted.clamp(used as f64 / 2.0, used as f64 * 2.0) as u64;
+        self.current = next.clamp(self.floor, self.slots.max(self.floor));
+    }
+}
+
+/// What one frame did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProgressiveReport {
+    pub frame: u64,
+    pub progress: LoadProgress,
+    /// Slots the Fill pass drew this frame (S).
+    pub fill_budget: u64,
+    /// Points scattered into the buffer before this frame (the frame shows them).
+    pub uploaded_points: u64,
+    /// A colours-only reload (attribute switching) is running.
+    pub recoloring: bool,
+    /// The image is final for this camera: all points loaded and drawn since it last moved.
+    pub converged: bool,
+    /// The GPU timing of an earlier frame that arrived during this one.
+    pub timing: Option<(u64, ProgressiveTiming)>,
+    /// The reader's error that ended loading, reported in the one frame that received it.
+    pub failure: Option<String>,
+}
+
+/// A frame timed from its submission to its completion (adapters without timestamps).
+struct Untimed {
+    frame: u64,
+    /// Nanoseconds it took, 0 until it completed.
+    done_ns: Arc<AtomicU64>,
+}
+
+/// A point file loading into a shuffled buffer and drawn progressively.
+pub struct ProgressiveScene {
+    config: ProgressiveConfig,
+    load: ProgressiveLoad,
+    /// The points load once it finished (kept for its progress), while `load` recolours.
+    finished: Option<LoadProgress>,
+    cloud: ProgressiveCloud,
+    shuffle: ShufflePass,
+    renderer: ProgressiveRenderer,
+    state: Option<ProgressiveState>,
+    budget: FillBudget,
+    bounds: Aabb,
+    /// Camera and hidden classes of the last frame, and slots filled since they (or the
+    /// buffer's contents) last changed.
+    last_view: Option<(Camera, [u32; 8])>,
+    filled_since_change: u64,
+    /// Fill budgets of frames whose timings have not arrived yet.
+    pending: VecDeque<(u64, u64)>,
+    /// The frame timed without timestamps (fallback timing), while it runs.
+    untimed: Option<Untimed>,
+    frame: u64,
+    failure: Option<String>,
+}
+
+impl ProgressiveScene {
+    /// Opens `path`, sizes the shuffled buffer to the file (or the VRAM budget) and starts
+    /// loading. Errors here mean nothing was loaded.
+    pub fn open(
+        ctx: &GpuContext,
+        path: &Path,
+        config: ProgressiveConfig,
+    ) -> Result<Self, EngineError> {
+        let load = Self::start_load(path, &config)?;
+        Self::with_load(ctx, load, config)
+    }
+
+    /// Starts loading `path` as [`open`](Self::open) would, before any GPU exists (the viewer
+    /// reads while its window opens); [`with_load`](Self::with_load) takes it from there.
+    pub fn start_load(
+        path: &Path,
+        config: &ProgressiveConfig,
+    ) -> Result<ProgressiveLoad, EngineError> {
+        let budget_slots = (config.vram_budget / SLOT_BYTES).max(1);
+        let load = LoadConfig {
+            max_slots: config.load.max_slots.min(budget_slots),
+            colors_only: false,
+            ..config.load.clone()
+        };
+        ProgressiveLoad::start(path, load)
+    }
+
+    /// The scene of a load begun by [`start_load`](Self::start_load) with the same `config`.
+    pub fn with_load(
+        ctx: &GpuContext,
+        load: ProgressiveLoad,
+        mut config: ProgressiveConfig,
+    ) -> Result<Self, EngineError> {
+        let path = load.path().to_path_buf();
+        config.load.max_slots = load.slots();
+        let renderer = ProgressiveRenderer::new(ctx, config.variant, config.page_size)?;
+        let slots = u32::try_from(load.slots()).map_err(|_| {
+            EngineError::Config(format!(
+                "{}: {} slots exceed a shuffled buffer's {}",
+                path.display(),
+                load.slots(),
+                u32::MAX
+            ))
+        })?;
+        let meta_bounds = load.bounds();
+        let cloud = ProgressiveCloud::new(ctx, slots, meta_bounds, config.page_size)?;
+        let shuffle = ShufflePass::new(ctx)?;
+        let budget = FillBudget::new(u64::from(slots), config.target_frame_ms);
+        Ok(Self {
+            config,
+            load,
+            finished: None,
+            cloud,
+            shuffle,
+            renderer,
+            state: None,
+            budget,
+            bounds: meta_bounds,
+            last_view: None,
+            filled_since_change: 0,
+            pending: VecDeque::new(),
+            untimed: None,
+            frame: 0,
+            failure: None,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        self.load.path()
+    }
+
+    /// What the reader noted about the file.
+    pub fn notes(&self) -> &[String] {
+        self.load.notes()
+    }
+
+    /// The header's bounds (the camera's framing).
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Points of the file (the header's count).
+    pub fn points(&self) -> u64 {
+        self.load.total()
+    }
+
+    /// Slots of the shuffled buffer (fewer than [`points`](Self::points) past the VRAM budget).
+    pub fn slots(&self) -> u64 {
+        u64::from(self.cloud.points())
+    }
+
+    /// GPU bytes of the shuffled buffer.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.slots() * SLOT_BYTES
+    }
+
+    pub fn variant(&self) -> RasterVariant {
+        self.config.variant
+    }
+
+    /// The colouring, once the load thread has chosen it.
+    pub fn color(&self) -> Option<LoadColor> {
+        self.load.color()
+    }
+
+    /// The colouring, waiting up to `timeout` for the load thread to choose it from its
+    /// sample (the first batch, or a few parts decoded in parallel).
+    pub fn color_within(&self, timeout: std::time::Duration) -> Option<LoadColor> {
+        let start = Instant::now();
+        loop {
+            let c = self.load.color();
+            if c.is_some() || start.elapsed() >= timeout || self.load.progress().is_finished() {
+                return c;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    }
+
+    /// The attributes the file has.
+    pub fn layout(&self) -> pointlet_core::PointLayout {
+        self.load.layout()
+    }
+
+    /// The reader's error that ended loading, if any (the points before it stay drawn).
+    pub fn failure(&self) -> Option<&str> {
+        self.failure.as_deref()
+    }
+
+    /// Progress of loading the points (not of a recolouring).
+    pub fn progress(&self) -> LoadProgress {
+        self.finished.unwrap_or_else(|| self.load.progress())
+    }
+
+    pub fn fill_budget(&self) -> &FillBudget {
+        &self.budget
+    }
+
+    /// Draws with another closest-point rasterizer from the next frame on (the image is
+    /// built again from the buffer).
+    pub fn set_variant(
+        &mut self,
+        ctx: &GpuContext,
+        variant: RasterVariant,
+    ) -> Result<(), EngineError> {
+        self.renderer = ProgressiveRenderer::new(ctx, variant, self.config.page_size)?;
+        self.config.variant = variant;
+        self.state = None;
+        self.pending.clear();
+        self.untimed = None;
+        Ok(())
+    }
+
+    /// Changes the target frame time of the adaptive budget.
+    pub fn set_target_frame_ms(&mut self, ms: f64) {
+        self.budget = FillBudget {
+            target_ms: ms,
+            ..self.budget.clone()
+        };
+    }
+
+    /// Colours every point by `mode`: once the points are loaded, the file is read again for
+    /// the colours alone (positions stay on the GPU); while loading, loading starts over with
+    /// the new colouring.
+    pub fn recolor(&mut self, mode: ColorMode) -> Result<(), EngineError> {
+        let mut load = self.config.load.clone();
+        load.color = Some(mode);
+        let points_loaded = self.finished.is_some() || self.load.progress().is_finished();
+        if points_loaded {
+            if self.finished.is_none() {
+                self.finished = Some(self.load.progress());
+            }
+            load.colors_only = true;
+        }
+        let next = ProgressiveLoad::start(self.load.path(), load.clone())?;
+        self.load = next;
+        self.config.load.color = Some(mode);
+        Ok(())
+    }
+
+    /// Draws one frame: scatters what the load thread has ready, then reproject → fill →
+    /// screen passes → prepare. Never waits for the load thread or for the GPU.
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        screen: &ScreenSettings,
+        hidden_classes: &[u32; 8],
+        target: &mut RenderTarget,
+    ) -> Result<ProgressiveReport, EngineError> {
+        self.frame += 1;
+        let up = self.load.upload_ready(
+            ctx,
+            &mut self.shuffle,
+            self.cloud.shuffled(),
+            self.config.batches_per_frame,
+        )?;
+        if let Some(f) = &up.failure {
+            self.failure = Some(f.to_string());
+        }
+        let recoloring = self.load.colors_only();
+        if recoloring && self.load.progress().is_finished() {
+            // The colours are in; the points load's progress stands for the file.
+            self.finished = self.finished.or(Some(self.load.progress()));
+        }
+        let size_changed = self
+            .state
+            .as_ref()
+            .is_none_or(|s| s.size() != (target.width, target.height));
+        if size_changed {
+            self.state = Some(ProgressiveState::new(ctx, target)?);
+        }
+        let view = (*camera, *hidden_classes);
+        if size_changed || up.batches > 0 || self.last_view != Some(view) {
+            self.filled_since_change = 0;
+        }
+        self.last_view = Some(view);
+        let slots = self.slots();
+        let budget = self.config.fixed_budget.unwrap_or(self.budget.current());
+        let budget = budget.clamp(1, slots.max(1));
+        let settings = ProgressiveSettings {
+            budget: u32::try_from(budget).unwrap_or(u32::MAX),
+            reproject: self.config.reproject,
+            screen: *screen,
+            hidden_classes: *hidden_classes,
+        };
+        let Some(state) = self.state.as_mut() else {
+            return Err(EngineError::Config("no progressive state".into()));
+        };
+        self.renderer
+            .render(ctx, &self.cloud, state, camera, &settings, target)?;
+        let frame = self.renderer.frames();
+        self.filled_since_change += budget;
+        let timing = self.collect_timing(ctx, target, frame, budget);
+        let progress = self.progress();
+        let loading = !self.load.progress().is_finished();
+        let converged = !loading && self.filled_since_change >= slots;
+        Ok(ProgressiveReport {
+            frame: self.frame,
+            progress,
+            fill_budget: budget,
+            uploaded_points: up.points,
+            recoloring: recoloring && loading,
+            converged,
+            timing,
+            failure: up.failure.map(|e| e.to_string()),
+        })
+    }
+
+    /// Feeds the adaptive budget with the newest GPU timing (timestamps, or without them the
+    /// time from submitting a frame to its completion).
+    fn collect_timing(
+        &mut self,
+        ctx: &GpuContext,
+        target: &mut RenderTarget,
+        frame: u64,
+        budget: u64,
+    ) -> Option<(u64, ProgressiveTiming)> {
+        self.pending.push_back((frame, budget));
+        while self.pending.len() > 64 {
+            self.pending.pop_front();
+        }
+        let mut newest = None;
+        if ctx.caps.timestamps {
+            for (f, t) in self.renderer.poll_timings(ctx, target) {
+                if let Some(&(_, used)) = self.pending.iter().find(|(pf, _)| *pf == f) {
+                    self.budget.observe(used, &t);
+                }
+                self.pending.retain(|(pf, _)| *pf > f);
+                newest = Some((f, t));
+            }
+            return newest;
+        }
+        // Without timestamps: one frame at a time is timed from submission to completion.
+        let _ = ctx.device.poll(wgpu::PollType::Poll);
+        let done = self
+            .untimed
+            .as_ref()
+            .map(|u| u.done_ns.load(Ordering::Acquire));
+        if let (Some(untimed), Some(ns)) = (&self.untimed, done.filter(|ns| *ns > 0)) {
+            let t = ProgressiveTiming {
+                fill_ms: ns as f64 * 1e-6,
+                ..Default::default()
+            };
+            let f = untimed.frame;
+            if let Some(&(_, used)) = self.pending.iter().find(|(pf, _)| *pf == f) {
+                self.budget.observe(used, &t);
+            }
+            self.pending.retain(|(pf, _)| *pf > f);
+            newest = Some((f, t));
+            self.untimed = None;
+        }
+        if self.untimed.is_none() {
+            let done_ns = Arc::new(AtomicU64::new(0));
+            let (flag, at) = (Arc::clone(&done_ns), Instant::now());
+            ctx.queue.on_submitted_work_done(move || {
+                let ns = at.elapsed().as_nanos().clamp(1, u128::from(u64::MAX)) as u64;
+                flag.store(ns, Ordering::Release);
+            });
+            self.untimed = Some(Untimed { frame, done_ns });
+        }
+        newest
+    }
+
+    /// The shuffled buffer's streams read back in slot order, and the origin its positions
+    /// are relative to (waits for the GPU; for tests and diagnostics).
+    pub fn read_buffer(
+        &self,
+        ctx: &GpuContext,
+    ) -> Result<(ShuffledContents, [f64; 3]), EngineError> {
+        Ok((self.cloud.shuffled().read(ctx)?, self.cloud.origin()))
+    }
+
+    /// Blocks until at most `max` frames run on the GPU (a swap chain's depth).
+    pub fn limit_frames_in_flight(
+        &mut self,
+        ctx: &GpuContext,
+        max: usize,
+    ) -> Result<(), EngineError> {
+        Ok(self.renderer.limit_frames_in_flight(ctx, max)?)
+    }
+
+    /// Waits up to `timeout` until the load thread has something new for the next frame.
+    pub fn wait_ready(&mut self, timeout: std::time::Duration) -> bool {
+        self.load.wait_ready(timeout)
+    }
+
+    /// Frames until the still camera has converged: every slot drawn since it stopped.
+    pub fn frames_to_converge(&self) -> u64 {
+        let left = self.slots().saturating_sub(self.filled_since_change);
+        let per_frame = self.config.fixed_budget.unwrap_or(self.budget.current());
+        left.div_ceil(per_frame.max(1))
+    }
+}

@@ -1,0 +1,493 @@
+//! A point file drawn while it loads (`ProgressiveScene`), on lavapipe:
+//! - a still camera converges to exactly the image of drawing every point at once (the static
+//!   `GpuCloud` path), for LAS, LAZ, PLY and XYZ, also after moving while loading;
+//! - a file larger than the VRAM budget keeps a uniform subset of all its points (χ² tests on
+//!   the file order and on a spatial histogram, α = 0.001), every slot filled;
+//! - a damaged file keeps what was read before the damage and reports the error once.
+//!
+//! Positions lie on a 1/256 grid within 64 units and the cameras' eyes on integers, so every
+//! difference from an origin is exact in f32 and both paths compute identical clip positions.
+
+use pointlet_core::color::point_color;
+use pointlet_core::shuffle::SplitMix64;
+use pointlet_core::{Camera, PointBatch, PointLayout, Quantization};
+use pointlet_engine::progressive::LoadConfig;
+use pointlet_engine::{FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene};
+use pointlet_gpu::progressive::ProgressiveTiming;
+use pointlet_gpu::{
+    AdapterRequest, GpuCloud, GpuContext, PointEncoding, PointSet, RasterVariant, RenderSettings,
+    RenderTarget, Renderer, ScreenSettings,
+};
+use pointlet_io::generate::{SceneConfig, SceneGenerator};
+use pointlet_io::writer::{LasWriter, LasWriterConfig};
+use pointlet_io::PointReader;
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+const W: u32 = 160;
+const H: u32 = 100;
+const N: usize = 40_000;
+const GRID: f64 = 256.0;
+
+fn context() -> GpuContext {
+    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
+        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
+    })
+}
+
+fn camera() -> Camera {
+    Camera {
+        eye: [8.0, 4.0, 30.0],
+        target: [32.0, 32.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 60.0,
+        near: 0.5,
+        far: 500.0,
+    }
+}
+
+fn moved() -> Camera {
+    Camera {
+        eye: [60.0, 10.0, 20.0],
+        target: [30.0, 40.0, 0.0],
+        ..camera()
+    }
+}
+
+/// A wavy terrain with pillars over 64 × 64 units, on the 1/256 grid, unique positions, RGB
+/// colours from the position.
+fn terrain() -> PointBatch {
+    let layout = PointLayout {
+        rgb: true,
+        ..Default::default()
+    };
+    let mut b = PointBatch::with_capacity(layout, N);
+    let mut rng = SplitMix64::new(21);
+    let mut seen = HashSet::new();
+    while b.len() < N {
+        let (gx, gy) = (rng.below(64 * 256), rng.below(64 * 256));
+        if !seen.insert((gx, gy)) {
+            continue;
+        }
+        let (x, y) = (gx as f64 / GRID, gy as f64 / GRID);
+        let mut z = 4.0 * (x / 6.0).sin() * (y / 5.0).cos() + 8.0;
+        if (x % 16.0) < 2.0 && (y % 16.0) < 2.0 {
+            z += 12.0 * rng.unit_f64();
+        }
+        b.xyz.push([x, y, (z * GRID).round() / GRID]);
+        b.rgb
+            .push([(gx * 4) as u16, (gy * 4) as u16, ((z * 2000.0) as u16)]);
+        b.intensity.push(0);
+        b.returns.push(0x11);
+        b.flags.push(0);
+        b.classification.push(2);
+        b.scan_angle.push(0.0);
+        b.user_data.push(0);
+        b.point_source_id.push(0);
+    }
+    b
+}
+
+fn write_las(path: &Path, batch: &PointBatch, compress: bool) {
+    let mut w = LasWriter::create(
+        path,
+        LasWriterConfig {
+            quantization: Quantization {
+                scale: [1.0 / GRID; 3],
+                offset: [0.0; 3],
+            },
+            point_format: 2,
+            layout: batch.layout,
+            vlrs: Vec::new(),
+            fields: Default::default(),
+            compress,
+        },
+    )
+    .unwrap();
+    w.write_batch(batch).unwrap();
+    w.finish().unwrap();
+}
+
+fn write_ply(path: &Path, batch: &PointBatch) {
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n\
+         property float y\nproperty float z\nproperty uchar red\nproperty uchar green\n\
+         property uchar blue\nend_header\n",
+        batch.len()
+    )
+    .into_bytes();
+    for (p, c) in batch.xyz.iter().zip(&batch.rgb) {
+        for v in p {
+            bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+        }
+        bytes.extend_from_slice(&[(c[0] >> 8) as u8, (c[1] >> 8) as u8, (c[2] >> 8) as u8]);
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn write_xyz(path: &Path, batch: &PointBatch) {
+    let text: String = batch
+        .xyz
+        .iter()
+        .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
+        .collect();
+    std::fs::write(path, text).unwrap();
+}
+
+/// The four kinds of point file, each holding `terrain()`.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let batch = terrain();
+    let las = dir.join("t.las");
+    write_las(&las, &batch, false);
+    let laz = dir.join("t.laz");
+    write_las(&laz, &batch, true);
+    let ply = dir.join("t.ply");
+    write_ply(&ply, &batch);
+    let xyz = dir.join("t.xyz");
+    write_xyz(&xyz, &batch);
+    vec![las, laz, ply, xyz]
+}
+
+fn config(variant: RasterVariant, budget: u64) -> ProgressiveConfig {
+    ProgressiveConfig {
+        load: LoadConfig {
+            batch_points: 3_000,
+            ..Default::default()
+        },
+        variant,
+        page_size: 1024,
+        fixed_budget: Some(budget),
+        ..Default::default()
+    }
+}
+
+fn frame(
+    ctx: &GpuContext,
+    scene: &mut ProgressiveScene,
+    camera: &Camera,
+    target: &mut RenderTarget,
+) -> ProgressiveReport {
+    scene
+        .frame(ctx, camera, &ScreenSettings::default(), &[0; 8], target)
+        .unwrap()
+}
+
+/// Frames of `camera` until the scene says the image is final; the frames it took.
+fn converge(
+    ctx: &GpuContext,
+    scene: &mut ProgressiveScene,
+    camera: &Camera,
+    target: &mut RenderTarget,
+) -> u64 {
+    let give_up = Instant::now() + Duration::from_secs(120);
+    let mut frames = 0;
+    loop {
+        let r = frame(ctx, scene, camera, target);
+        frames += 1;
+        assert!(r.failure.is_none(), "{:?}", r.failure);
+        if r.converged {
+            return frames;
+        }
+        assert!(Instant::now() < give_up, "never converged");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Every point of `path` drawn at once by the static path, coloured by the scene's scale.
+fn static_image(
+    ctx: &GpuContext,
+    path: &Path,
+    scene: &ProgressiveScene,
+    variant: RasterVariant,
+    camera: &Camera,
+) -> Image {
+    let scale = scene.color().expect("colouring chosen").scale;
+    let mut reader = pointlet_io::open(path).unwrap();
+    let mut set = PointSet::default();
+    while let Some(b) = reader.read_batch(10_000).unwrap() {
+        for i in 0..b.len() {
+            set.positions.push(b.xyz[i]);
+            set.colors.push(point_color(&b, i, &scale));
+        }
+    }
+    let mut cloud = GpuCloud::upload(ctx, &set, PointEncoding::Full16, 1024).unwrap();
+    let mut target = RenderTarget::new(ctx, W, H).unwrap();
+    let settings = RenderSettings {
+        variant,
+        ..Default::default()
+    };
+    Renderer::new(ctx)
+        .render(ctx, &mut cloud, camera, &settings, &mut target)
+        .unwrap();
+    Image {
+        rgba: target.read_rgba(ctx).unwrap(),
+        depth: target.read_depth(ctx).unwrap(),
+    }
+}
+
+struct Image {
+    rgba: Vec<u8>,
+    depth: Vec<f32>,
+}
+
+fn differing(a: &[u8], b: &[u8]) -> usize {
+    a.chunks(4).zip(b.chunks(4)).filter(|(x, y)| x != y).count()
+}
+
+fn lit(rgba: &[u8]) -> usize {
+    rgba.chunks(4).filter(|p| p[..3] != [0, 0, 0]).count()
+}
+
+#[test]
+fn a_still_camera_converges_to_drawing_every_point_for_every_file_kind() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let variants = [
+        RasterVariant::AtomicMin,
+        RasterVariant::ReduceEarlyZ.fallback(&ctx.caps),
+    ];
+    for path in files(dir.path()) {
+        for variant in variants {
+            let mut scene = ProgressiveScene::open(&ctx, &path, config(variant, 7_777)).unwrap();
+            assert_eq!(scene.slots(), N as u64, "{}", path.display());
+            let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+            // Moving while loading, then still: the image must still become exact.
+            for _ in 0..3 {
+                frame(&ctx, &mut scene, &moved(), &mut target);
+            }
+            let frames = converge(&ctx, &mut scene, &camera(), &mut target);
+            assert!(frames >= (N as u64).div_ceil(7_777), "{frames} frames");
+            let got = Image {
+                rgba: target.read_rgba(&ctx).unwrap(),
+                depth: target.read_depth(&ctx).unwrap(),
+            };
+            let want = static_image(&ctx, &path, &scene, variant, &camera());
+            assert!(
+                lit(&want.rgba) > (W * H / 4) as usize,
+                "the view shows the terrain"
+            );
+            let name = format!("{} with {}", path.display(), variant.name());
+            // Every pixel's closest depth is the same: the same points won.
+            assert!(
+                got.depth == want.depth,
+                "{name}: the converged depths differ"
+            );
+            // Colours may differ only where two points share the closest depth exactly: there
+            // the smaller slot wins, where the static path takes the smaller colour.
+            let ties = differing(&got.rgba, &want.rgba);
+            assert!(ties <= 3, "{name}: {ties} pixels differ in colour");
+        }
+    }
+}
+
+/// χ² of `counts` against `expected` (cells expecting fewer than 5 are pooled) and its
+/// degrees of freedom.
+fn chi_square(counts: &[f64], expected: &[f64]) -> (f64, usize) {
+    let (mut chi, mut cells, mut pool_c, mut pool_e) = (0.0, 0usize, 0.0, 0.0);
+    for (c, e) in counts.iter().zip(expected) {
+        if *e < 5.0 {
+            pool_c += c;
+            pool_e += e;
+            continue;
+        }
+        chi += (c - e).powi(2) / e;
+        cells += 1;
+    }
+    if pool_e > 0.0 {
+        chi += (pool_c - pool_e).powi(2) / pool_e;
+        cells += 1;
+    }
+    (chi, cells.saturating_sub(1))
+}
+
+/// The χ² quantile of 1 - 0.001 (Wilson–Hilferty approximation).
+fn chi_critical(dof: usize) -> f64 {
+    let k = dof as f64;
+    let z = 3.090_232; // standard normal quantile of 0.999
+    k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
+}
+
+#[test]
+fn a_file_beyond_the_vram_budget_keeps_a_uniform_subset() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let batch = terrain();
+    let path = dir.path().join("big.las");
+    write_las(&path, &batch, false);
+    let keep = 10_000u64;
+    let mut cfg = config(RasterVariant::AtomicMin, 4_000);
+    cfg.vram_budget = keep * pointlet_engine::SLOT_BYTES;
+    let mut scene = ProgressiveScene::open(&ctx, &path, cfg).unwrap();
+    assert_eq!((scene.slots(), scene.points()), (keep, N as u64));
+    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+    converge(&ctx, &mut scene, &camera(), &mut target);
+    assert!(lit(&target.read_rgba(&ctx).unwrap()) > 1000);
+    assert_eq!(scene.progress().uploaded, N as u64, "every point was read");
+
+    // Which point of the file each slot holds.
+    let index: HashMap<[i64; 3], usize> = batch
+        .xyz
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.map(|v| (v * GRID).round() as i64), i))
+        .collect();
+    let (contents, origin) = scene.read_buffer(&ctx).unwrap();
+    let slots: Vec<usize> = contents
+        .positions
+        .chunks(3)
+        .map(|w| {
+            assert_ne!(w[0], u32::MAX, "a slot stayed empty");
+            let p: [f64; 3] = std::array::from_fn(|a| origin[a] + f32::from_bits(w[a]) as f64);
+            let key = p.map(|v| (v * GRID).round() as i64);
+            *index.get(&key).expect("a slot holds a point of the file")
+        })
+        .collect();
+    assert_eq!(slots.len(), keep as usize);
+    let distinct: HashSet<usize> = slots.iter().copied().collect();
+    assert_eq!(distinct.len(), slots.len(), "a point kept twice");
+
+    // Uniform over the file order: 20 bins of file indices.
+    let mut bins = vec![0.0; 20];
+    for &i in &slots {
+        bins[i * 20 / N] += 1.0;
+    }
+    let (chi, dof) = chi_square(&bins, &[keep as f64 / 20.0; 20]);
+    assert!(
+        chi < chi_critical(dof),
+        "file order: χ² {chi:.1} ≥ {:.1}",
+        chi_critical(dof)
+    );
+
+    // Uniform in space, for the whole buffer and for a prefix: 8 × 8 cells over the terrain,
+    // expected in proportion to the file's points per cell.
+    let cell = |i: usize| {
+        let p = batch.xyz[i];
+        ((p[0] / 8.0) as usize).min(7) * 8 + ((p[1] / 8.0) as usize).min(7)
+    };
+    let mut file_cells = vec![0.0; 64];
+    for i in 0..N {
+        file_cells[cell(i)] += 1.0;
+    }
+    for prefix in [keep as usize, 2_000] {
+        let mut got = vec![0.0; 64];
+        for &i in &slots[..prefix] {
+            got[cell(i)] += 1.0;
+        }
+        let want: Vec<f64> = file_cells
+            .iter()
+            .map(|c| c * prefix as f64 / N as f64)
+            .collect();
+        let (chi, dof) = chi_square(&got, &want);
+        assert!(
+            chi < chi_critical(dof),
+            "prefix {prefix}: spatial χ² {chi:.1} ≥ {:.1}",
+            chi_critical(dof)
+        );
+    }
+}
+
+#[test]
+fn a_damaged_file_shows_what_was_read_and_reports_the_error_once() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let scene_gen = SceneGenerator::new(SceneConfig {
+        points: 300_000,
+        seed: 5,
+    });
+    let meta = scene_gen.meta();
+    let path = dir.path().join("cut.las");
+    let mut w = LasWriter::create(
+        &path,
+        LasWriterConfig {
+            quantization: meta.quantization.unwrap(),
+            point_format: meta.las_point_format.unwrap(),
+            layout: meta.layout,
+            vlrs: meta.vlrs.clone(),
+            fields: meta.las.clone().unwrap_or_default(),
+            compress: false,
+        },
+    )
+    .unwrap();
+    let mut r = scene_gen.reader();
+    while let Some(b) = r.read_batch(50_000).unwrap() {
+        w.write_batch(&b).unwrap();
+    }
+    w.finish().unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let data_start = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as u64;
+    let record = u16::from_le_bytes(bytes[105..107].try_into().unwrap()) as u64;
+    drop(bytes);
+    let mut cfg = config(RasterVariant::AtomicMin, 1 << 20);
+    // One batch queued, one held: the load thread waits for the frames before the cut.
+    cfg.load.queue_batches = 1;
+    let mut scene = ProgressiveScene::open(&ctx, &path, cfg).unwrap();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&path)
+        .unwrap()
+        .set_len(data_start + 100_000 * record)
+        .unwrap();
+    let camera = Camera::overview(&scene.bounds(), 60.0);
+    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+    let give_up = Instant::now() + Duration::from_secs(60);
+    let mut failures = Vec::new();
+    while !scene.progress().is_finished() {
+        failures.extend(frame(&ctx, &mut scene, &camera, &mut target).failure);
+        assert!(Instant::now() < give_up, "loading never ended");
+    }
+    for _ in 0..3 {
+        failures.extend(frame(&ctx, &mut scene, &camera, &mut target).failure);
+    }
+    assert_eq!(failures.len(), 1, "{failures:?}");
+    let message = &failures[0];
+    assert!(message.contains(&path.display().to_string()), "{message}");
+    assert!(
+        message.contains(&format!("byte {}", data_start + 100_000 * record)),
+        "{message}"
+    );
+    assert_eq!(scene.failure(), Some(message.as_str()));
+    let p = scene.progress();
+    assert!(p.uploaded > 0 && p.uploaded <= 100_000, "{p:?}");
+    assert!(
+        lit(&target.read_rgba(&ctx).unwrap()) > 500,
+        "the points read stay drawn"
+    );
+}
+
+#[test]
+fn the_fill_budget_follows_the_frame_time() {
+    let mut b = FillBudget::new(100_000_000, 16.0);
+    let start = b.current();
+    let slow = ProgressiveTiming {
+        reproject_ms: 1.0,
+        fill_ms: 40.0,
+        screen_ms: 1.0,
+    };
+    b.observe(start, &slow);
+    assert_eq!(b.current(), start / 2, "a slow frame halves S at most");
+    let fast = ProgressiveTiming {
+        fill_ms: 1.0,
+        ..slow
+    };
+    for _ in 0..40 {
+        let s = b.current();
+        b.observe(s, &fast);
+    }
+    // 16 ms · 0.85 - 2 ms of fixed passes, at 1 ms per S points.
+    let s = b.current();
+    b.observe(s, &fast);
+    assert_eq!(b.current(), 100_000_000, "capped at every slot");
+    for _ in 0..60 {
+        let s = b.current();
+        b.observe(
+            s,
+            &ProgressiveTiming {
+                fill_ms: 1e6,
+                ..slow
+            },
+        );
+    }
+    assert_eq!(b.current(), b.floor(), "never below the floor");
+    assert_eq!(b.floor(), 100_000_000 / 600);
+}
