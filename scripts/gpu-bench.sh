@@ -9,6 +9,7 @@
 #   threads residency threads × loaders A/B on the 1 G-point store (run store first)
 #   diag    a quick 200 M-point orbit for profiling the residency step
 #   progressive      point files drawn while they load: 50 M-point LAS and LAZ (issue 11)
+#   first-frame      50 M-point LAS: render reading the file whole vs drawing while loading
 #   progressive-1g   brute-force progressive rendering of a 1 G-point LAS (issue 11)
 set -euo pipefail
 phase=$1
@@ -104,6 +105,18 @@ case "$phase" in
       done
       rm -f "$f"
     done
+    ;;
+  first-frame)
+    # The whole file read before the first frame (the in-memory path of a blending-free
+    # 32-bit rasterizer) against drawing while loading, 50 M points, page cache warm.
+    f=/tmp/p50.las
+    "$bin" generate --points 50M -o "$f" 2>&1 | tail -1 | tee -a "$out/log.txt"
+    cat "$f" >/dev/null
+    for raster in atomic-min-32 reduce-early-z; do
+      /usr/bin/time -f "render --raster $raster: %e s wall, %M KiB" "$bin" render "$f" -o /tmp/r.png \
+        --raster "$raster" 2>&1 | tail -2 | tee -a "$out/log.txt"
+    done
+    rm -f "$f"
     ;;
   progressive-1g)
     f=/tmp/p1g.las

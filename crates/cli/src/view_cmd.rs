@@ -59,7 +59,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let input = match args.input {
+    let progressive =
+        crate::progressive_cmd::is_progressive(args.input.as_deref(), args.draw.raster);
+    let input = match args.input.clone() {
         Some(p) if crate::load::is_store_path(&p) => Input::Store(p),
         Some(p) => Input::File {
             path: p,
@@ -70,19 +72,37 @@ pub fn run(args: Args) -> Result<()> {
             seed: crate::scene::DEMO_SEED,
         },
     };
+    // An extra-bytes attribute is found by name in the input's description of its records.
+    let color = match (&args.draw.color, &input) {
+        (None, _) => None,
+        (Some(ColorArg::Mode(m)), _) => Some(*m),
+        (Some(asked), Input::Store(path)) => {
+            let store = crate::load::open_store(path, "view")?;
+            Some(crate::scene::store_color(Some(asked), &store)?)
+        }
+        (Some(asked), Input::File { path, .. }) if !progressive => {
+            crate::progressive_cmd::resolve_color(path, &args.read, Some(asked))?;
+            anyhow::bail!(
+                "{}: a file read whole ({}) cannot be coloured by extra-bytes attributes; \
+                 a closest-point --raster draws it while it loads and can",
+                path.display(),
+                args.draw.raster.name()
+            )
+        }
+        (Some(asked), Input::File { path, .. }) => {
+            crate::progressive_cmd::resolve_color(path, &args.read, Some(asked))?
+        }
+        (Some(_), Input::Demo { .. }) => {
+            anyhow::bail!("the demo scene has no extra-bytes attributes to colour by")
+        }
+    };
     let camera_args = args.camera.clone();
     let config = ViewerConfig {
         input,
         camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
         size: (args.width, args.height),
         settings: args.draw.settings(args.draw.raster),
-        color: match &args.draw.color {
-            None => None,
-            Some(ColorArg::Mode(m)) => Some(*m),
-            Some(ColorArg::Extra(_)) => anyhow::bail!(
-                "the viewer cannot colour by extra-bytes attributes yet (render and bench can)"
-            ),
-        },
+        color,
         encoding: args.draw.encoding,
         page_size: args.draw.page_size,
         order: args.draw.order,

@@ -601,9 +601,20 @@ fn extra_bytes_attributes_colour_files_and_stores_by_name() {
 }
 
 #[test]
-fn the_viewer_says_it_cannot_colour_by_extra_bytes_yet() {
+fn the_viewer_resolves_extra_bytes_names_before_opening_a_window() {
     fails(
-        &["view", s(&data("extrabytes.las")), "--color", "extra:Time"],
-        &["viewer cannot colour by extra-bytes attributes yet"],
+        &["view", s(&data("extrabytes.las")), "--color", "extra:nope"],
+        &["no extra-bytes attribute 'nope'", "Time"],
+    );
+    fails(
+        &[
+            "view",
+            s(&data("extrabytes.las")),
+            "--color",
+            "extra:Time",
+            "--raster",
+            "hqs",
+        ],
+        &["read whole", "cannot be coloured by extra-bytes attributes"],
     );
 }

@@ -175,6 +175,7 @@ fn viewer_window_matches_render_of_the_same_camera() {
         &data("plane.laz"),
         &["--color", "intensity", "--raster", "hqs"],
     );
+    assert_view_matches_render(&x, &data("extrabytes.las"), &["--color", "extra:Time"]);
     // The hardware point baseline, and the demo scene (no INPUT).
     assert_view_matches_render(
         &x,

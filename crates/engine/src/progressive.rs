@@ -46,10 +46,15 @@ const NO_STEP: [f64; 3] = [1.0; 3];
 pub struct LoadConfig {
     /// The colouring asked for; `None` picks the data's default from a sample.
     pub color: Option<ColorMode>,
+    /// The exact scale to colour with (its mode wins over `color`); `None` fits one on the
+    /// sample.
+    pub scale: Option<ColorScale>,
     /// Points per batch (LAS/LAZ batches are whole parts: at least one part, else at most this).
     pub batch_points: usize,
     /// Encoded batches that may wait in the queue (at least 1); the load thread holds one more.
     pub queue_batches: usize,
+    /// LAS/LAZ parts a batch takes at least, beyond `batch_points` (0: one per decoding thread).
+    pub parallel_parts: usize,
     /// What text files do not say for themselves.
     pub read: ReadOptions,
     /// Slots of the shuffled buffer at most (the VRAM budget's points); a file with more
@@ -65,8 +70,10 @@ impl Default for LoadConfig {
     fn default() -> Self {
         Self {
             color: None,
+            scale: None,
             batch_points: BATCH_POINTS,
             queue_batches: QUEUE_BATCHES,
+            parallel_parts: 0,
             read: ReadOptions::default(),
             max_slots: u64::from(u32::MAX),
             colors_only: false,
@@ -186,7 +193,9 @@ struct Job {
     z_range: [f64; 2],
     layout: PointLayout,
     asked: Option<ColorMode>,
+    scale: Option<ColorScale>,
     batch_points: usize,
+    parallel_parts: usize,
     shared: Arc<Shared>,
     queue: SyncSender<Message>,
 }
@@ -196,6 +205,7 @@ struct Job {
 pub struct ProgressiveLoad {
     path: PathBuf,
     layout: PointLayout,
+    extras: ExtraAttributes,
     /// What the reader noted about the file (for `note:` lines).
     notes: Vec<String>,
     bounds: pointlet_core::Aabb,
@@ -222,7 +232,8 @@ impl ProgressiveLoad {
         let reader = pointlet_io::open_with(path, &config.read)
             .map_err(|e| EngineError::Read(e.to_string()))?;
         let meta = reader.meta();
-        if let Some(mode) = config.color.filter(|m| !m.available_in(&meta.layout)) {
+        let asked = config.scale.map(|s| s.mode).or(config.color);
+        if let Some(mode) = asked.filter(|m| !m.available_in(&meta.layout)) {
             return Err(EngineError::Config(format!(
                 "{} has no {} attribute to colour by",
                 path.display(),
@@ -236,7 +247,7 @@ impl ProgressiveLoad {
         let reservoir = Reservoir::new(slots, config.seed)
             .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?;
         let extras = ExtraAttributes::from_vlrs(&meta.vlrs, usize::from(meta.layout.extra_bytes));
-        if let Some(ColorMode::Extra(i)) = config.color {
+        if let Some(ColorMode::Extra(i)) = asked {
             if usize::from(i) >= extras.attributes.len() {
                 return Err(EngineError::Config(format!(
                     "{} has no extra-bytes attribute {i} to colour by",
@@ -254,6 +265,7 @@ impl ProgressiveLoad {
             .len();
         let shared = Arc::new(Shared::default());
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
+        let job_extras = extras.clone();
         let job = Job {
             path: path.to_path_buf(),
             total,
@@ -263,8 +275,10 @@ impl ProgressiveLoad {
             origin,
             z_range,
             layout: meta.layout,
-            asked: config.color,
+            asked,
+            scale: config.scale,
             batch_points: config.batch_points.max(1),
+            parallel_parts: config.parallel_parts,
             shared: Arc::clone(&shared),
             queue: tx,
         };
@@ -275,6 +289,7 @@ impl ProgressiveLoad {
         Ok(Self {
             path: path.to_path_buf(),
             layout,
+            extras: job_extras,
             notes,
             bounds,
             total,
@@ -305,6 +320,11 @@ impl ProgressiveLoad {
     /// The attributes the file has.
     pub fn layout(&self) -> PointLayout {
         self.layout
+    }
+
+    /// Its extra-bytes attributes.
+    pub fn extras(&self) -> &ExtraAttributes {
+        &self.extras
     }
 
     /// The header's bounds (positions are encoded relative to their minimum).
@@ -498,11 +518,19 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
             .collect();
         choose_color(job, &sample.iter().collect::<Vec<_>>())
     });
+    // A batch is decoded in parallel and waits for its slowest part: it takes at least one
+    // part per thread (LAZ chunks are 50 000 points: ten would leave 16 cores idle).
+    let threads = match job.parallel_parts {
+        0 => rayon::current_num_threads(),
+        n => n,
+    };
     let (mut part, mut first) = (0, 0u64);
     while part < sizes.len() {
         let mut end = part + 1;
         let mut points = sizes[part];
-        while end < sizes.len() && points + sizes[end] <= job.batch_points as u64 {
+        while end < sizes.len()
+            && (points + sizes[end] <= job.batch_points as u64 || end - part < threads)
+        {
             points += sizes[end];
             end += 1;
         }
@@ -608,6 +636,12 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
 
 /// The colouring asked for, or the data's default decided on `sample`.
 fn choose_color(job: &Job, sample: &[&PointBatch]) -> LoadColor {
+    if let Some(scale) = job.scale {
+        return LoadColor {
+            scale,
+            default: None,
+        };
+    }
     let default = match job.asked {
         Some(_) => None,
         None => Some(default_color(&job.layout, sample)),

@@ -7,7 +7,7 @@
 
 use crate::progressive::{LoadColor, LoadConfig, LoadProgress, ProgressiveLoad};
 use crate::EngineError;
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::{Aabb, Camera};
 use pointlet_gpu::progressive::{
     ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState, ProgressiveTiming,
@@ -283,6 +283,11 @@ impl ProgressiveScene {
         self.load.layout()
     }
 
+    /// Its extra-bytes attributes.
+    pub fn extras(&self) -> &pointlet_core::extra::ExtraAttributes {
+        self.load.extras()
+    }
+
     /// The reader's error that ended loading, if any (the points before it stay drawn).
     pub fn failure(&self) -> Option<&str> {
         self.failure.as_deref()
@@ -324,8 +329,37 @@ impl ProgressiveScene {
     /// the colours alone (positions stay on the GPU); while loading, loading starts over with
     /// the new colouring.
     pub fn recolor(&mut self, mode: ColorMode) -> Result<(), EngineError> {
+        self.reload_colors(Some(mode), None)
+    }
+
+    /// The colouring of the newest load: its mode (once chosen, the default's), and the exact
+    /// scale when one was given ([`recolor_with`](Self::recolor_with)).
+    pub fn asked_mode(&self) -> Option<ColorMode> {
+        let l = &self.config.load;
+        l.scale
+            .map(|s| s.mode)
+            .or(l.color)
+            .or(self.load.color().map(|c| c.scale.mode))
+    }
+
+    pub fn asked_scale(&self) -> Option<ColorScale> {
+        self.config.load.scale
+    }
+
+    /// Colours every point with exactly `scale` (a range or ramp edited in the viewer), as
+    /// [`recolor`](Self::recolor) does.
+    pub fn recolor_with(&mut self, scale: ColorScale) -> Result<(), EngineError> {
+        self.reload_colors(Some(scale.mode), Some(scale))
+    }
+
+    fn reload_colors(
+        &mut self,
+        mode: Option<ColorMode>,
+        scale: Option<ColorScale>,
+    ) -> Result<(), EngineError> {
         let mut load = self.config.load.clone();
-        load.color = Some(mode);
+        load.color = mode;
+        load.scale = scale;
         let points_loaded = self.finished.is_some() || self.load.progress().is_finished();
         if points_loaded {
             if self.finished.is_none() {
@@ -335,7 +369,8 @@ impl ProgressiveScene {
         }
         let next = ProgressiveLoad::start(self.load.path(), load.clone())?;
         self.load = next;
-        self.config.load.color = Some(mode);
+        self.config.load.color = mode;
+        self.config.load.scale = scale;
         Ok(())
     }
 
@@ -470,6 +505,23 @@ impl ProgressiveScene {
         ctx: &GpuContext,
     ) -> Result<(ShuffledContents, [f64; 3]), EngineError> {
         Ok((self.cloud.shuffled().read(ctx)?, self.cloud.origin()))
+    }
+
+    /// The position of the point the last frame showed nearest to `pixel` (within `radius`
+    /// pixels), to f32 precision around the cloud's minimum; waits for the GPU.
+    pub fn pick(
+        &self,
+        ctx: &GpuContext,
+        pixel: [u32; 2],
+        radius: u32,
+    ) -> Result<Option<[f64; 3]>, EngineError> {
+        let Some(state) = &self.state else {
+            return Ok(None);
+        };
+        match state.pick(ctx, pixel, radius)? {
+            Some((slot, _)) => Ok(self.cloud.position(ctx, slot)?),
+            None => Ok(None),
+        }
     }
 
     /// Blocks until at most `max` frames run on the GPU (a swap chain's depth).

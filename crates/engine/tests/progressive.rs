@@ -242,6 +242,7 @@ fn a_las_cut_while_loading_keeps_the_points_before_the_cut_and_reports_once() {
         let config = LoadConfig {
             batch_points: (parts_per_batch * LAS_PART) as usize,
             queue_batches: 1,
+            parallel_parts: 1,
             ..Default::default()
         };
         let mut load = ProgressiveLoad::start(&path, config).unwrap();
@@ -297,6 +298,7 @@ fn the_load_thread_runs_no_further_ahead_than_the_queue_bound() {
     let config = LoadConfig {
         batch_points: LAS_PART as usize,
         queue_batches,
+        parallel_parts: 1,
         ..Default::default()
     };
     let mut load = ProgressiveLoad::start(&path, config).unwrap();
@@ -347,6 +349,7 @@ fn dropping_a_load_while_its_thread_waits_on_the_queue_stops_the_thread() {
     let config = LoadConfig {
         batch_points: LAS_PART as usize,
         queue_batches: 1,
+        parallel_parts: 1,
         ..Default::default()
     };
     let load = ProgressiveLoad::start(&path, config).unwrap();

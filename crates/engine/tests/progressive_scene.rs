@@ -8,7 +8,7 @@
 //! Positions lie on a 1/256 grid within 64 units and the cameras' eyes on integers, so every
 //! difference from an origin is exact in f32 and both paths compute identical clip positions.
 
-use pointlet_core::color::point_color;
+use pointlet_core::color::{point_color, ColorMode};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_core::{Camera, PointBatch, PointLayout, Quantization};
 use pointlet_engine::progressive::LoadConfig;
@@ -421,6 +421,7 @@ fn a_damaged_file_shows_what_was_read_and_reports_the_error_once() {
     let mut cfg = config(RasterVariant::AtomicMin, 1 << 20);
     // One batch queued, one held: the load thread waits for the frames before the cut.
     cfg.load.queue_batches = 1;
+    cfg.load.parallel_parts = 1;
     let mut scene = ProgressiveScene::open(&ctx, &path, cfg).unwrap();
     std::fs::OpenOptions::new()
         .write(true)
@@ -490,4 +491,89 @@ fn the_fill_budget_follows_the_frame_time() {
     }
     assert_eq!(b.current(), b.floor(), "never below the floor");
     assert_eq!(b.floor(), 100_000_000 / 600);
+}
+
+#[test]
+fn picking_names_the_point_of_the_file_under_the_cursor() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let batch = terrain();
+    let path = dir.path().join("pick.las");
+    write_las(&path, &batch, false);
+    let mut scene =
+        ProgressiveScene::open(&ctx, &path, config(RasterVariant::AtomicMin, 50_000)).unwrap();
+    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+    converge(&ctx, &mut scene, &camera(), &mut target);
+    let depth = target.read_depth(&ctx).unwrap();
+    let points: HashSet<[i64; 3]> = batch
+        .xyz
+        .iter()
+        .map(|p| p.map(|v| (v * GRID).round() as i64))
+        .collect();
+    let mut picked = 0;
+    for k in (0..depth.len()).step_by(97).filter(|k| depth[*k] > 0.0) {
+        let pixel = [k as u32 % W, k as u32 / W];
+        let p = scene
+            .pick(&ctx, pixel, 0)
+            .unwrap()
+            .expect("a lit pixel has a point");
+        let key = p.map(|v| (v * GRID).round() as i64);
+        assert!(points.contains(&key), "{p:?} is no point of the file");
+        let (at, _) = pointlet_gpu::reference::project(&camera(), W, H, p).expect("in view");
+        assert_eq!(at, k, "the picked point lies under pixel {pixel:?}");
+        picked += 1;
+    }
+    assert!(picked > 20, "{picked} pixels picked");
+    // A pixel outside the image names nothing.
+    assert!(scene.pick(&ctx, [W + 5, 0], 3).unwrap().is_none());
+}
+
+#[test]
+fn recolouring_a_loaded_file_rewrites_the_colours_only() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("colours.las");
+    write_las(&path, &terrain(), false);
+    let mut cfg = config(RasterVariant::AtomicMin, 50_000);
+    cfg.load.color = Some(ColorMode::Elevation);
+    let mut scene = ProgressiveScene::open(&ctx, &path, cfg).unwrap();
+    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+    converge(&ctx, &mut scene, &camera(), &mut target);
+    let (before, origin) = scene.read_buffer(&ctx).unwrap();
+    let elevation = target.read_rgba(&ctx).unwrap();
+    // The file as read, by grid position, to recompute each slot's colour.
+    let mut reader = pointlet_io::open(&path).unwrap();
+    let file = reader.read_batch(N).unwrap().unwrap();
+    let index: HashMap<[i64; 3], usize> = file
+        .xyz
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.map(|v| (v * GRID).round() as i64), i))
+        .collect();
+    let check = |scene: &ProgressiveScene, scale: &pointlet_core::color::ColorScale| {
+        let (after, _) = scene.read_buffer(&ctx).unwrap();
+        assert!(
+            after.positions == before.positions,
+            "positions were rewritten"
+        );
+        for (w, c) in after.positions.chunks(3).zip(&after.colors) {
+            let key: [i64; 3] = std::array::from_fn(|a| {
+                ((origin[a] + f32::from_bits(w[a]) as f64) * GRID).round() as i64
+            });
+            assert_eq!(*c, point_color(&file, index[&key], scale));
+        }
+    };
+    scene.recolor(ColorMode::Rgb).unwrap();
+    converge(&ctx, &mut scene, &camera(), &mut target);
+    let rgb = scene.color().unwrap().scale;
+    assert_eq!(rgb.mode, ColorMode::Rgb);
+    check(&scene, &rgb);
+    assert!(target.read_rgba(&ctx).unwrap() != elevation);
+    // An edited scale is taken as it is.
+    let mut edited = pointlet_core::color::ColorScale::fit(ColorMode::Elevation, &[], [0.0, 1.0]);
+    edited.range = [7.0, 9.0];
+    scene.recolor_with(edited).unwrap();
+    converge(&ctx, &mut scene, &camera(), &mut target);
+    assert_eq!(scene.color().unwrap().scale, edited);
+    check(&scene, &edited);
 }

@@ -158,6 +158,32 @@ impl ProgressiveCloud {
         &self.shuffled
     }
 
+    /// The position of the point in `slot` (f32 offsets from the origin), `None` for an empty
+    /// or missing slot; waits for the GPU.
+    pub fn position(&self, ctx: &GpuContext, slot: u32) -> Result<Option<[f64; 3]>, GpuError> {
+        if slot >= self.points {
+            return Ok(None);
+        }
+        let page = slot / self.page_size;
+        let Some(chunk) = self
+            .storage
+            .chunks
+            .get((page / self.storage.slots_per_chunk) as usize)
+        else {
+            return Ok(None);
+        };
+        let index = (slot - chunk.first_slot * self.page_size) as u64;
+        let bytes = ENCODING.position_bytes();
+        let words: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&read_range(ctx, &chunk.positions, index * bytes, bytes)?);
+        if words.len() != 3 || words[0] == EMPTY_SLOT {
+            return Ok(None);
+        }
+        Ok(Some(std::array::from_fn(|a| {
+            self.origin[a] + f32::from_bits(words[a]) as f64
+        })))
+    }
+
     /// Writes the camera-relative origin and the frame uniform.
     fn prepare(
         &self,
@@ -212,6 +238,9 @@ impl ProgressiveCloud {
             .write_buffer(&self.fill_args, 0, bytemuck::cast_slice(&args));
     }
 }
+
+/// The x word of a slot no point has been loaded into (empty_slots.wgsl, fetch_full16.wgsl).
+pub const EMPTY_SLOT: u32 = u32::MAX;
 
 /// Marks every slot of `storage` empty (empty_slots.wgsl): the Fill pass skips slots that no
 /// point has been loaded into yet.
@@ -339,6 +368,48 @@ impl ProgressiveState {
         self.next_fill
     }
 
+    /// The slot of the point the last frame showed nearest to `pixel` (within `radius`
+    /// pixels; on equal distance the closer in depth), with its depth; waits for the GPU.
+    pub fn pick(
+        &self,
+        ctx: &GpuContext,
+        pixel: [u32; 2],
+        radius: u32,
+    ) -> Result<Option<(u32, f32)>, GpuError> {
+        let (w, h) = (self.width, self.height);
+        if !self.has_list || pixel[0] >= w || pixel[1] >= h {
+            return Ok(None);
+        }
+        let y0 = pixel[1].saturating_sub(radius);
+        let y1 = (pixel[1] + radius).min(h - 1);
+        let row = w as u64 * 8;
+        let keys: Vec<u64> = bytemuck::pod_collect_to_vec(&read_range(
+            ctx,
+            &self.indexed,
+            y0 as u64 * row,
+            (y1 - y0 + 1) as u64 * row,
+        )?);
+        let mut best: Option<(u64, f32, u32)> = None;
+        for y in y0..=y1 {
+            for x in pixel[0].saturating_sub(radius)..=(pixel[0] + radius).min(w - 1) {
+                let Some(&key) = keys.get(((y - y0) * w + x) as usize) else {
+                    continue;
+                };
+                let dist =
+                    (x.abs_diff(pixel[0]) as u64).pow(2) + (y.abs_diff(pixel[1]) as u64).pow(2);
+                if key == 0 || dist > (radius as u64).pow(2) {
+                    continue;
+                }
+                let depth = f32::from_bits(!((key >> 32) as u32));
+                let slot = !(key as u32);
+                if best.is_none_or(|(d, z, _)| (dist, depth) < (d, z)) {
+                    best = Some((dist, depth, slot));
+                }
+            }
+        }
+        Ok(best.map(|(_, depth, slot)| (slot, depth)))
+    }
+
     /// The slots the last frame's Prepare pass listed (waits for the GPU); empty before the
     /// first frame.
     pub fn read_list(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
@@ -362,6 +433,18 @@ impl ProgressiveState {
 
 /// The first `bytes` bytes of a COPY_SRC buffer, as u32 words.
 fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u32>, GpuError> {
+    Ok(bytemuck::pod_collect_to_vec(&read_range(
+        ctx, buffer, 0, bytes,
+    )?))
+}
+
+/// Bytes `offset..offset + bytes` of a COPY_SRC buffer (both multiples of 4).
+fn read_range(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
     if bytes == 0 {
         return Ok(Vec::new());
     }
@@ -374,9 +457,9 @@ fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec
         })
     })?;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
+    enc.copy_buffer_to_buffer(buffer, offset, &readback, 0, bytes);
     ctx.queue.submit([enc.finish()]);
-    Ok(bytemuck::pod_collect_to_vec(&map_read(ctx, &readback)?))
+    map_read(ctx, &readback)
 }
 
 /// A compute pipeline over the point bind group (group 0) of the progressive encoding and

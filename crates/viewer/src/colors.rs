@@ -11,6 +11,13 @@ pub fn available_modes(layout: &PointLayout) -> Vec<ColorMode> {
         .collect()
 }
 
+/// The modes of [`available_modes`] and one per extra-bytes attribute named in `extras`.
+pub fn available_with_extras(layout: &PointLayout, extras: &[String]) -> Vec<ColorMode> {
+    let mut modes = available_modes(layout);
+    modes.extend((0..extras.len().min(256)).map(|i| ColorMode::Extra(i as u8)));
+    modes
+}
+
 /// Which parts of the scale mean something for a mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScaleKnobs {
@@ -45,6 +52,8 @@ pub fn knobs(mode: ColorMode) -> ScaleKnobs {
 #[derive(Clone, Debug)]
 pub struct ColorState {
     pub available: Vec<ColorMode>,
+    /// Names of the extra-bytes attributes (`ColorMode::Extra(i)` is `extra_names[i]`).
+    pub extra_names: Vec<String>,
     /// What the UI edits.
     pub scale: ColorScale,
     applied: Option<ColorScale>,
@@ -55,8 +64,20 @@ impl ColorState {
     pub fn new(available: Vec<ColorMode>, scale: ColorScale) -> Self {
         Self {
             available,
+            extra_names: Vec::new(),
             scale,
             applied: Some(scale),
+        }
+    }
+
+    /// What the UI calls `mode` (an extra-bytes attribute by its name).
+    pub fn label(&self, mode: ColorMode) -> String {
+        match mode {
+            ColorMode::Extra(i) => match self.extra_names.get(usize::from(i)) {
+                Some(name) => format!("extra: {name}"),
+                None => format!("extra bytes {i}"),
+            },
+            m => m.name().to_string(),
         }
     }
 
@@ -68,6 +89,18 @@ impl ColorState {
     pub fn select(&mut self, fitted: ColorScale) {
         let ramp = self.scale.ramp;
         self.scale = ColorScale { ramp, ..fitted };
+    }
+
+    /// Takes `scale` as what the GPU shows and the UI edits (a loading file's colouring,
+    /// fitted by its load thread).
+    pub fn adopt(&mut self, scale: ColorScale) {
+        self.scale = scale;
+        self.applied = Some(scale);
+    }
+
+    /// The scale the GPU shows, as last applied.
+    pub fn applied(&self) -> Option<ColorScale> {
+        self.applied
     }
 
     /// The scale to upload, if the GPU does not show it yet.

@@ -2,10 +2,11 @@
 //! virtualized `VirtualScene`, or a point file drawn while it loads (`ProgressiveScene`). One
 //! interface for drawing, picking and recolouring each.
 
-use crate::colors::{available_modes, legend, ColorState, LegendEntry};
+use crate::colors::{available_modes, available_with_extras, legend, ColorState, LegendEntry};
 use crate::memory::MemoryData;
 use crate::ViewerError;
 use pointlet_core::color::ColorScale;
+use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::{Aabb, Camera};
 use pointlet_engine::{FrameReport, ProgressiveReport, ProgressiveScene, VirtualScene};
 use pointlet_gpu::{
@@ -96,15 +97,23 @@ impl Content {
         }
     }
 
-    /// The colouring state to start from: `scale` is already on the GPU.
+    /// The colouring state to start from: `scale` is already on the GPU. Stores and loading
+    /// point files colour by their extra-bytes attributes too (in-memory data keeps no
+    /// extra bytes).
     pub fn color_state(&self, scale: ColorScale) -> ColorState {
-        match self {
-            Content::Memory(m) => ColorState::new(available_modes(&m.data.layout), scale),
+        let (layout, extras) = match self {
+            Content::Memory(m) => return ColorState::new(available_modes(&m.data.layout), scale),
             Content::Store(s) => {
-                ColorState::new(available_modes(&s.store().header().layout), scale)
+                let h = s.store().header();
+                let extras = ExtraAttributes::from_vlrs(&h.vlrs, usize::from(h.layout.extra_bytes));
+                (h.layout, extras)
             }
-            Content::Progressive(p) => ColorState::new(available_modes(&p.layout()), scale),
-        }
+            Content::Progressive(p) => (p.layout(), p.extras().clone()),
+        };
+        let names: Vec<String> = extras.attributes.iter().map(|a| a.name.clone()).collect();
+        let mut state = ColorState::new(available_with_extras(&layout, &names), scale);
+        state.extra_names = names;
+        state
     }
 
     /// The data-fitted scale of `mode`.
@@ -143,13 +152,19 @@ impl Content {
             Content::Store(s) => s
                 .set_color_scale(*scale)
                 .map_err(|e| ViewerError::Gpu(e.to_string())),
-            // The file is read again for the colours alone (loaded points keep their positions).
-            Content::Progressive(p) if p.color().is_some_and(|c| c.scale.mode == scale.mode) => {
-                Ok(())
+            // The file is read again for the colours alone (loaded points keep their
+            // positions): another mode is fitted on the file's sample, an edited scale is
+            // taken as it is.
+            Content::Progressive(p) => {
+                let result = if p.color().is_some_and(|c| c.scale == *scale) {
+                    Ok(())
+                } else if p.asked_mode() == Some(scale.mode) {
+                    p.recolor_with(*scale)
+                } else {
+                    p.recolor(scale.mode)
+                };
+                result.map_err(|e| ViewerError::Load(format!("recolouring: {e}")))
             }
-            Content::Progressive(p) => p
-                .recolor(scale.mode)
-                .map_err(|e| ViewerError::Load(format!("recolouring: {e}"))),
         }
     }
 
@@ -244,9 +259,10 @@ impl Content {
                     .map_err(|e| ViewerError::Gpu(format!("picking: {e}")))?;
                 Ok(hit.map(|p| p.position))
             }
-            // The shuffled buffer has no pick pass yet (measuring needs a store or a file
-            // read whole).
-            Content::Progressive(_) => Ok(None),
+            // The last frame's index framebuffer names the point under the cursor.
+            Content::Progressive(p) => p
+                .pick(ctx, pixel, PICK_RADIUS)
+                .map_err(|e| ViewerError::Gpu(format!("picking: {e}"))),
         }
     }
 }

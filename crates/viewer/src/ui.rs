@@ -136,10 +136,11 @@ fn coloring(p: &mut egui::Ui, view: &mut View, actions: &mut Vec<Action>) {
         .show(p, |s| {
             let current = view.colors.mode();
             egui::ComboBox::from_label("colour by")
-                .selected_text(current.name())
+                .selected_text(view.colors.label(current))
                 .show_ui(s, |c| {
                     for mode in view.colors.available.clone() {
-                        if c.selectable_label(mode == current, mode.name()).clicked() {
+                        let label = view.colors.label(mode);
+                        if c.selectable_label(mode == current, label).clicked() {
                             actions.push(Action::SelectColor(mode));
                         }
                     }

@@ -110,6 +110,16 @@ impl View {
             &mut self.target,
         )?;
         self.last_view = Some((camera, self.settings, self.size()));
+        // A loading file fits a new mode's scale on its own sample: the UI shows that one.
+        if let crate::content::Content::Progressive(p) = &self.content {
+            let loaded = p.color().map(|c| c.scale);
+            let fitted_there = p.asked_scale().is_none();
+            if let Some(scale) = loaded.filter(|s| {
+                fitted_there && s.mode == self.colors.mode() && Some(*s) != self.colors.applied()
+            }) {
+                self.colors.adopt(scale);
+            }
+        }
         self.stats.frame(now);
         if let Some((_, t)) = self.drawn.progressive.as_ref().and_then(|r| r.timing) {
             // The progressive scene reads its own timestamps (its fill budget needs them).
