@@ -298,10 +298,6 @@ impl ProgressiveScene {
         self.finished.unwrap_or_else(|| self.load.progress())
     }
 
-    pub fn fill_budget(&self) -> &FillBudget {
-        &self.budget
-    }
-
     /// Draws with another closest-point rasterizer from the next frame on (the image is
     /// built again from the buffer).
     pub fn set_variant(
@@ -315,14 +311,6 @@ impl ProgressiveScene {
         self.pending.clear();
         self.untimed = None;
         Ok(())
-    }
-
-    /// Changes the target frame time of the adaptive budget.
-    pub fn set_target_frame_ms(&mut self, ms: f64) {
-        self.budget = FillBudget {
-            target_ms: ms,
-            ..self.budget.clone()
-        };
     }
 
     /// Colours every point by `mode`: once the points are loaded, the file is read again for
@@ -536,12 +524,5 @@ impl ProgressiveScene {
     /// Waits up to `timeout` until the load thread has something new for the next frame.
     pub fn wait_ready(&mut self, timeout: std::time::Duration) -> bool {
         self.load.wait_ready(timeout)
-    }
-
-    /// Frames until the still camera has converged: every slot drawn since it stopped.
-    pub fn frames_to_converge(&self) -> u64 {
-        let left = self.slots().saturating_sub(self.filled_since_change);
-        let per_frame = self.config.fixed_budget.unwrap_or(self.budget.current());
-        left.div_ceil(per_frame.max(1))
     }
 }
