@@ -53,6 +53,11 @@ pub struct Args {
     /// Measure image quality instead: PSNR of LoD images against the full-detail image.
     #[arg(long)]
     pub quality: bool,
+    /// Fly the path by frames and at this many frames along it measure the PSNR of the moving
+    /// frame against the full-detail image of its camera (with and without
+    /// `--temporal-reuse` to compare them).
+    #[arg(long)]
+    pub path_quality: Option<u32>,
     /// Buckets for `--quality` (default 1M,2.5M,5M,10M,25M,50M up to the store's size).
     #[arg(long, value_delimiter = ',', value_parser = crate::parse_bucket_arg)]
     pub buckets: Vec<u64>,
@@ -168,6 +173,18 @@ pub fn run(args: Args) -> Result<()> {
         CameraPath::load(Path::new(&args.path))?
     };
     let cameras = path.sample(args.frames, &bounds);
+    if let Some(samples) = args.path_quality {
+        return path_quality(
+            &args,
+            &ctx,
+            &mut scene,
+            &mut renderer,
+            &mut target,
+            &settings,
+            &cameras,
+            samples,
+        );
+    }
     if let Some(first) = cameras.first() {
         for _ in 0..args.warmup {
             scene.frame(&ctx, &mut renderer, first, &settings, &mut target)?;
@@ -441,6 +458,89 @@ fn settle(
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
     bail!("the view did not settle within 20 000 frames")
+}
+
+#[derive(Serialize)]
+struct PathQualityRow {
+    frame: usize,
+    psnr_db: f64,
+    /// The moving frame's wall time.
+    frame_ms: f64,
+}
+
+/// `--path-quality N`: the path flown by frames; at N frames spread over it, the moving
+/// frame's image against the full-detail image of the same camera (drawn by a second scene).
+#[allow(clippy::too_many_arguments)]
+fn path_quality(
+    args: &Args,
+    ctx: &GpuContext,
+    scene: &mut VirtualScene,
+    renderer: &mut Renderer,
+    target: &mut RenderTarget,
+    settings: &RenderSettings,
+    cameras: &[Camera],
+    samples: u32,
+) -> Result<()> {
+    if samples == 0 {
+        bail!("--path-quality needs at least 1 sample");
+    }
+    let store = crate::load::open_store(&args.store, "bench")?;
+    let color = crate::scene::store_color(args.draw.color.as_ref(), &store)?;
+    drop(store);
+    let mut truth_config = args.virtual_args.config(&args.draw, color);
+    truth_config.temporal_reuse = false;
+    let mut truth = VirtualScene::open(ctx, &args.store, truth_config, (args.width, args.height))?;
+    let mut truth_target = RenderTarget::new(ctx, args.width, args.height)?;
+    let mut truth_renderer = Renderer::new(ctx);
+    let every = (cameras.len() / samples as usize).max(1);
+    let mut rows = Vec::new();
+    for (k, camera) in cameras.iter().enumerate() {
+        let start = Instant::now();
+        scene.frame(ctx, renderer, camera, settings, target)?;
+        if k % every != every - 1 {
+            continue;
+        }
+        let image = target.read_rgba(ctx)?;
+        let frame_ms = start.elapsed().as_secs_f64() * 1e3;
+        settle(
+            ctx,
+            &mut truth,
+            &mut truth_renderer,
+            &mut truth_target,
+            camera,
+            settings,
+            |r, _| r.converged,
+        )?;
+        let psnr = pointlet_report::psnr(&image, &truth_target.read_rgba(ctx)?)?;
+        println!("frame {k:>6}: PSNR {psnr:>6.2} dB against full detail");
+        rows.push(PathQualityRow {
+            frame: k,
+            psnr_db: psnr,
+            frame_ms,
+        });
+    }
+    let finite: Vec<f64> = rows
+        .iter()
+        .map(|r| r.psnr_db)
+        .filter(|p| p.is_finite())
+        .collect();
+    let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+    println!(
+        "{}: mean PSNR {mean:.2} dB over {} frames along the path (bucket {}, temporal reuse {})",
+        args.store.display(),
+        rows.len(),
+        args.virtual_args.bucket,
+        if args.virtual_args.temporal_reuse {
+            "on"
+        } else {
+            "off"
+        }
+    );
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
 }
 
 #[derive(Serialize)]

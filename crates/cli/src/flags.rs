@@ -10,8 +10,9 @@ use pointlet_gpu::RasterVariant;
 use std::path::Path;
 
 /// Flags of the virtualized renderer, which draws stores only.
-const VIRTUAL: [&str; 7] = [
+const VIRTUAL: [&str; 8] = [
     "bucket",
+    "temporal_reuse",
     "vram_budget",
     "ram_budget",
     "upload_per_frame",
@@ -103,7 +104,11 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
                 "point files drawn whole and the demo scene",
                 kind,
             )?;
-            given.refuse(&["quality", "buckets", "warmup"], "stores", kind)?;
+            given.refuse(
+                &["quality", "buckets", "warmup", "path_quality"],
+                "stores",
+                kind,
+            )?;
             let store_only: Vec<&str> = VIRTUAL
                 .iter()
                 .copied()
@@ -127,8 +132,16 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
                     "plot",
                 ];
                 given.refuse(&flight, "the flight along a path", "--quality")?;
+                given.refuse(&["path_quality"], "the flight along a path", "--quality")?;
             } else {
                 given.refuse(&["buckets"], "--quality", "the flight along a path")?;
+            }
+            if a.path_quality.is_some() {
+                given.refuse(
+                    &["realtime", "warmup", "in_flight", "plot"],
+                    "the timed flight",
+                    "--path-quality (frames by number, each compared with full detail)",
+                )?;
             }
             bench_flight(given, a)
         }

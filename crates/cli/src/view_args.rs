@@ -152,6 +152,9 @@ pub struct VirtualArgs {
     /// Threads of the per-frame residency work (0: half the cores).
     #[arg(long, default_value_t = 0)]
     pub residency_threads: usize,
+    /// A moving camera's frame starts from the last frame reprojected, the LoD filling in.
+    #[arg(long)]
+    pub temporal_reuse: bool,
 }
 
 impl VirtualArgs {
@@ -167,6 +170,7 @@ impl VirtualArgs {
             threads: self.residency_threads,
             upload_per_frame: self.upload_per_frame,
             color,
+            temporal_reuse: self.temporal_reuse,
         }
     }
 }

@@ -618,3 +618,51 @@ fn the_viewer_resolves_extra_bytes_names_before_opening_a_window() {
         &["read whole", "cannot be coloured by extra-bytes attributes"],
     );
 }
+
+#[test]
+fn bench_path_quality_compares_moving_frames_with_full_detail() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("g.pointlet");
+    ok(&["generate", "--points", "60k", "-o", s(&store)]);
+    for reuse in [false, true] {
+        let json = dir.path().join(format!("q{reuse}.json"));
+        let mut args = vec![
+            "bench",
+            s(&store),
+            "--frames",
+            "24",
+            "--path-quality",
+            "3",
+            "--bucket",
+            "5k",
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--json",
+            s(&json),
+        ];
+        if reuse {
+            args.push("--temporal-reuse");
+        }
+        let out = ok(&args);
+        assert!(out.contains("mean PSNR"), "{out}");
+        let rows: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        assert_eq!(rows.as_array().map(Vec::len), Some(3), "{rows}");
+    }
+    usage_fails(
+        &["bench", s(&store), "--path-quality", "3", "--realtime"],
+        &["--realtime", "--path-quality"],
+    );
+    usage_fails(
+        &[
+            "render",
+            s(&data("simple.las")),
+            "-o",
+            "x.png",
+            "--temporal-reuse",
+        ],
+        &["--temporal-reuse", "stores"],
+    );
+}

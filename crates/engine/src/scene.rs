@@ -11,7 +11,7 @@ use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::{Aabb, Camera, Quantization};
 use pointlet_gpu::{
     GpuContext, PageBatch, PagedCloud, PagedView, PointEncoding, PointletDesc, RenderSettings,
-    RenderTarget, Renderer,
+    RenderTarget, Renderer, TemporalReuse,
 };
 use pointlet_store::Store;
 use pointlet_stream::{CacheConfig, CacheStats, RamCache};
@@ -37,6 +37,9 @@ pub struct SceneConfig {
     /// Points moved from RAM to the GPU per frame at most (keeps frames steady).
     pub upload_per_frame: u64,
     pub color: ColorMode,
+    /// A moving camera's frame starts from the last frame reprojected (`gpu::TemporalReuse`)
+    /// instead of the LoD image alone.
+    pub temporal_reuse: bool,
 }
 
 impl Default for SceneConfig {
@@ -50,6 +53,7 @@ impl Default for SceneConfig {
             loaders: 4,
             threads: 0,
             upload_per_frame: 1 << 20,
+            temporal_reuse: false,
             color: ColorMode::Rgb,
         }
     }
@@ -114,6 +118,10 @@ pub struct VirtualScene {
     pages_resident: u32,
     gpu_points: u64,
     cache: CacheStats,
+    /// The last frame, kept for reprojection (with `SceneConfig::temporal_reuse`).
+    reuse: Option<TemporalReuse>,
+    /// The framebuffer holds reprojected pixels: a still view starts its refinement afresh.
+    reused_last: bool,
 }
 
 /// A point under the cursor, read back from the store: exact coordinates.
@@ -243,6 +251,8 @@ impl VirtualScene {
             capped_since: None,
             feedback_totals: (0, 0),
             recoloured: false,
+            reuse: None,
+            reused_last: false,
             complete_at: None,
             pages_resident: 0,
             gpu_points: 0,
@@ -449,11 +459,28 @@ impl VirtualScene {
         target: &mut RenderTarget,
     ) -> Result<FrameReport, EngineError> {
         let view_key = (*camera, *settings, (target.width, target.height));
-        let still = self.last_camera.as_ref() == Some(&view_key);
+        let mut still = self.last_camera.as_ref() == Some(&view_key);
+        let same_settings = self
+            .last_camera
+            .as_ref()
+            .is_some_and(|k| (k.1, k.2) == (view_key.1, view_key.2));
         self.last_camera = Some(view_key);
         // Pages recoloured by the batch queued last frame may already be in the kept
         // framebuffer with their old colours: accumulation starts over, as after a camera move.
         let recoloured = std::mem::take(&mut self.recoloured);
+        if self.config.temporal_reuse && self.reuse.is_none() {
+            self.reuse = Some(TemporalReuse::new(ctx)?);
+        }
+        if let Some(reuse) = &mut self.reuse {
+            // Reprojected pixels approximate the points (pixel centres): a still view drops
+            // them and refines from a clean frame; other settings or colours reuse nothing.
+            if (still && self.reused_last) || !same_settings || recoloured {
+                reuse.forget();
+            }
+            if still && self.reused_last {
+                still = false;
+            }
+        }
         // A still view grows the bucket to full detail. Closest-point variants add each
         // frame's new points to the kept framebuffer; the others (HQS) redraw every resident
         // point each frame, so their requests must fit the pool at once.
@@ -530,14 +557,22 @@ impl VirtualScene {
             self.in_flight = true;
         }
         report.handoff_ms = handoff.elapsed().as_secs_f64() * 1e3;
-        renderer.render_paged(
-            ctx,
-            &mut self.paged,
-            camera,
-            settings,
-            &PagedView { bucket, accumulate },
-            target,
-        )?;
+        let view = PagedView { bucket, accumulate };
+        match &mut self.reuse {
+            Some(reuse) => {
+                self.reused_last = !accumulate && reuse.has_frame();
+                renderer.render_paged_reusing(
+                    ctx,
+                    &mut self.paged,
+                    camera,
+                    settings,
+                    &view,
+                    target,
+                    reuse,
+                )?;
+            }
+            None => renderer.render_paged(ctx, &mut self.paged, camera, settings, &view, target)?,
+        }
         (report.requested_points, report.drawn_points) = self.feedback_totals;
         report.pages_resident = self.pages_resident;
         report.gpu_points = self.gpu_points;

@@ -12,6 +12,7 @@ pub mod progressive;
 mod raster;
 pub mod reference;
 mod renderer;
+mod reuse;
 mod screen;
 mod shaders;
 pub mod shuffle;
@@ -26,6 +27,7 @@ pub use paged::{gammas, LodFeedback, PagedCloud, PagedView, PointletDesc};
 pub use pick::PickHit;
 pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
+pub use reuse::{reprojection, TemporalReuse};
 pub use screen::{EdlSettings, OcclusionSettings, ScreenSettings};
 pub use storage::{
     compact_step, decode_compact, encode_point, encode_positions, needs_fine, quantize_compact,

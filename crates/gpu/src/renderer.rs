@@ -5,6 +5,7 @@ use crate::context::GpuContext;
 use crate::hw_points::HwPointsPipeline;
 use crate::paged::{PagedCloud, PagedView};
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
+use crate::reuse::TemporalReuse;
 use crate::screen::{ScreenPasses, ScreenSettings};
 use crate::storage::PointEncoding;
 use crate::target::RenderTarget;
@@ -189,6 +190,37 @@ impl Renderer {
         view: &PagedView,
         target: &mut RenderTarget,
     ) -> Result<(), GpuError> {
+        self.paged_frame(ctx, paged, camera, settings, view, target, None)
+    }
+
+    /// [`render_paged`](Self::render_paged) with temporal reuse: a frame that does not
+    /// accumulate starts from `reuse`'s kept frame reprojected to `camera`, and every frame is
+    /// kept for the next (closest-point variants; the others draw as without reuse).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_paged_reusing(
+        &mut self,
+        ctx: &GpuContext,
+        paged: &mut PagedCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        view: &PagedView,
+        target: &mut RenderTarget,
+        reuse: &mut TemporalReuse,
+    ) -> Result<(), GpuError> {
+        self.paged_frame(ctx, paged, camera, settings, view, target, Some(reuse))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn paged_frame(
+        &mut self,
+        ctx: &GpuContext,
+        paged: &mut PagedCloud,
+        camera: &Camera,
+        settings: &RenderSettings,
+        view: &PagedView,
+        target: &mut RenderTarget,
+        reuse: Option<&mut TemporalReuse>,
+    ) -> Result<(), GpuError> {
         let variant = settings.variant;
         if variant == RasterVariant::HwPoints {
             return Err(GpuError::Unsupported {
@@ -236,6 +268,15 @@ impl Renderer {
             !view.accumulate,
             stamps(2),
         );
+        if let Some(reuse) = reuse {
+            if variant.accumulates() {
+                let reprojected =
+                    !view.accumulate && reuse.record_reproject(ctx, &mut enc, target, camera)?;
+                reuse.record_keep(ctx, &mut enc, target, camera, reprojected)?;
+            } else {
+                reuse.forget();
+            }
+        }
         self.finish_frame(ctx, enc, target, variant, &settings.screen, true)?;
         paged.after_submit();
         Ok(())
