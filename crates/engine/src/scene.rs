@@ -278,6 +278,20 @@ impl VirtualScene {
         self.config.bucket = bucket.max(1.0);
     }
 
+    /// Moving frames start from the last frame reprojected (on) or from the LoD image alone.
+    pub fn set_temporal_reuse(&mut self, on: bool) {
+        self.config.temporal_reuse = on;
+        if !on && self.reuse.take().is_some() {
+            // The framebuffer may hold reprojected pixels: the next frame starts clean.
+            self.reused_last = false;
+            self.last_camera = None;
+        }
+    }
+
+    pub fn temporal_reuse(&self) -> bool {
+        self.config.temporal_reuse
+    }
+
     /// The colouring the loaders apply.
     pub fn color_scale(&self) -> ColorScale {
         self.scale

@@ -137,4 +137,15 @@ fn a_moving_camera_reuses_the_last_frame_and_a_still_one_still_converges_exactly
         got == want,
         "the still image after reuse differs from full detail"
     );
+    // Switched off right after a reusing frame, the still view still refines from clean.
+    camera.eye[1] += step;
+    camera.target[1] += step;
+    reusing.frame(&ctx, &camera);
+    reusing.scene.set_temporal_reuse(false);
+    let want = plain.converge(&ctx, &camera);
+    let got = reusing.converge(&ctx, &camera);
+    assert!(
+        got == want,
+        "switching reuse off left reprojected pixels behind"
+    );
 }

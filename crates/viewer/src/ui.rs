@@ -253,6 +253,13 @@ fn rendering(p: &mut egui::Ui, view: &mut View) {
                 {
                     scene.set_bucket(millions * 1e6);
                 }
+                let mut reuse = scene.temporal_reuse();
+                if s.checkbox(&mut reuse, "temporal reuse while moving")
+                    .on_hover_text("moving frames start from the last frame reprojected")
+                    .changed()
+                {
+                    scene.set_temporal_reuse(reuse);
+                }
             }
             let screen = &mut view.settings.screen;
             s.add(egui::Slider::new(&mut screen.fill_radius, 0..=8).text("hole filling (px)"));
