@@ -72,6 +72,46 @@ pub struct Args {
     pub read: crate::load::ReadArgs,
 }
 
+/// The camera path of a bench flight (`--path`, `--frames`, `--realtime`) around `bounds`.
+pub(crate) struct Flight {
+    pub path: CameraPath,
+    /// The path sampled at `--frames` evenly spaced times.
+    pub cameras: Vec<Camera>,
+    bounds: pointlet_core::Aabb,
+    realtime: bool,
+}
+
+impl Flight {
+    pub fn new(args: &Args, bounds: pointlet_core::Aabb) -> Result<Self> {
+        let path = if args.path == "orbit" {
+            CameraPath::orbit(
+                &bounds,
+                args.orbit_seconds,
+                args.frames as f64 / args.orbit_seconds,
+            )?
+        } else {
+            CameraPath::load(Path::new(&args.path))?
+        };
+        let cameras = path.sample(args.frames, &bounds);
+        Ok(Self {
+            path,
+            cameras,
+            bounds,
+            realtime: args.realtime,
+        })
+    }
+
+    /// The camera of frame `k`, started `t` seconds into the flight: the k-th sample, or with
+    /// `--realtime` the path at time t; `None` once the flight is over.
+    pub fn camera(&self, k: usize, t: f64) -> Option<Camera> {
+        if self.realtime {
+            (t < self.path.duration()).then(|| self.path.camera_at(t, &self.bounds))
+        } else {
+            self.cameras.get(k).copied()
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct FrameRow {
     frame: u32,
@@ -163,16 +203,8 @@ pub fn run(args: Args) -> Result<()> {
             &settings,
         );
     }
-    let path = if args.path == "orbit" {
-        CameraPath::orbit(
-            &bounds,
-            args.orbit_seconds,
-            args.frames as f64 / args.orbit_seconds,
-        )?
-    } else {
-        CameraPath::load(Path::new(&args.path))?
-    };
-    let cameras = path.sample(args.frames, &bounds);
+    let flight = Flight::new(&args, bounds)?;
+    let cameras = &flight.cameras;
     if let Some(samples) = args.path_quality {
         return path_quality(
             &args,
@@ -181,7 +213,7 @@ pub fn run(args: Args) -> Result<()> {
             &mut renderer,
             &mut target,
             &settings,
-            &cameras,
+            cameras,
             samples,
         );
     }
@@ -201,16 +233,8 @@ pub fn run(args: Args) -> Result<()> {
         renderer.limit_frames_in_flight(&ctx, args.in_flight)?;
         let start = Instant::now();
         let t = (start - began).as_secs_f64();
-        let camera = if args.realtime {
-            if t >= path.duration() {
-                break;
-            }
-            path.camera_at(t, &bounds)
-        } else {
-            match cameras.get(k as usize) {
-                Some(c) => *c,
-                None => break,
-            }
+        let Some(camera) = flight.camera(k as usize, t) else {
+            break;
         };
         if k == 0 {
             first_frame = renderer.frames() + 1;

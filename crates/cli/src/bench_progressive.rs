@@ -3,10 +3,9 @@
 //! with points, load throughput, time until fully loaded, time to converge once the path ends,
 //! and the share of the points drawn per frame (S / N).
 
-use crate::bench_cmd::{write_series, Args};
+use crate::bench_cmd::{write_series, Args, Flight};
 use crate::progressive_cmd;
 use anyhow::{bail, Context, Result};
-use pointlet_core::path::CameraPath;
 use pointlet_gpu::RenderTarget;
 use pointlet_report::{FrameStats, Series, StageBreakdown};
 use serde::Serialize;
@@ -84,16 +83,8 @@ pub fn run(args: &Args) -> Result<()> {
     let began = Instant::now();
     let mut scene = progressive_cmd::open(&ctx, file, config)?;
     let bounds = scene.bounds();
-    let path = if args.path == "orbit" {
-        CameraPath::orbit(
-            &bounds,
-            args.orbit_seconds,
-            args.frames as f64 / args.orbit_seconds,
-        )?
-    } else {
-        CameraPath::load(Path::new(&args.path))?
-    };
-    let cameras = path.sample(args.frames, &bounds);
+    let flight = Flight::new(args, bounds)?;
+    let (path, cameras) = (&flight.path, &flight.cameras);
     let screen = args.draw.screen();
     let hidden = [0u32; 8];
     let slots = scene.slots().max(1);
@@ -101,8 +92,8 @@ pub fn run(args: &Args) -> Result<()> {
     let mut first_frame_s = None;
     let mut loaded_s = None;
     let mut failure = None;
-    let flight = Instant::now();
-    let mut last_start = flight;
+    let flown = Instant::now();
+    let mut last_start = flown;
     // Timings arrive frames later; frame ids count from 1 like the rows.
     let record = |rows: &mut Vec<Row>, report: &pointlet_engine::ProgressiveReport| {
         if let Some((frame, t)) = report.timing {
@@ -116,17 +107,9 @@ pub fn run(args: &Args) -> Result<()> {
     for k in 0u32.. {
         scene.limit_frames_in_flight(&ctx, args.in_flight)?;
         let start = Instant::now();
-        let t = (start - flight).as_secs_f64();
-        let camera = if args.realtime {
-            if t >= path.duration() {
-                break;
-            }
-            path.camera_at(t, &bounds)
-        } else {
-            match cameras.get(k as usize) {
-                Some(c) => *c,
-                None => break,
-            }
+        let t = (start - flown).as_secs_f64();
+        let Some(camera) = flight.camera(k as usize, t) else {
+            break;
         };
         if let Some(prev) = rows.last_mut() {
             prev.frame_ms = (start - last_start).as_secs_f64() * 1e3;

@@ -507,7 +507,7 @@ impl ProgressiveScene {
             return Ok(None);
         };
         match state.pick(ctx, pixel, radius)? {
-            Some((slot, _)) => Ok(self.cloud.position(ctx, slot)?),
+            Some(hit) => Ok(self.cloud.position(ctx, hit.id)?),
             None => Ok(None),
         }
     }

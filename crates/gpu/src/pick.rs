@@ -141,11 +141,10 @@ fn read_pick(
     radius: u32,
 ) -> Result<Option<PickHit>, GpuError> {
     let (w, h) = (target.width, target.height);
-    if pixel[0] >= w || pixel[1] >= h {
+    let Some(rows) = rows_around(pixel, radius, w, h) else {
         return Ok(None);
-    }
-    let y0 = pixel[1].saturating_sub(radius);
-    let y1 = (pixel[1] + radius).min(h - 1);
+    };
+    let (y0, y1) = (*rows.start(), *rows.end());
     let offset = y0 as u64 * w as u64 * 4;
     let size = (y1 - y0 + 1) as u64 * w as u64 * 4;
     let readback = |label| {
@@ -163,33 +162,62 @@ fn read_pick(
     ctx.checked("reading the pick", || ctx.queue.submit([enc.finish()]))?;
     let depth: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &depth_rb)?);
     let ids: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &id_rb)?);
-    let mut best: Option<(u64, f32, PickHit)> = None;
-    for y in y0..=y1 {
-        for x in pixel[0].saturating_sub(radius)..=(pixel[0] + radius).min(w - 1) {
-            let k = ((y - y0) * w + x) as usize;
-            let (Some(d), Some(id)) = (depth.get(k), ids.get(k)) else {
-                continue;
-            };
-            if *d == 0 {
-                continue;
-            }
+    let hit_at = |k: usize| match (depth.get(k), ids.get(k)) {
+        (Some(d), Some(id)) if *d != 0 => Some((!*id, f32::from_bits(!*d))),
+        _ => None,
+    };
+    Ok(nearest_in_rows(w, pixel, radius, y0..=y1, hit_at))
+}
+
+/// The rows within `radius` of `pixel` in an image `height` pixels high; `None` when the
+/// pixel lies outside a `width` × `height` image.
+pub(crate) fn rows_around(
+    pixel: [u32; 2],
+    radius: u32,
+    width: u32,
+    height: u32,
+) -> Option<std::ops::RangeInclusive<u32>> {
+    if pixel[0] >= width || pixel[1] >= height {
+        return None;
+    }
+    Some(pixel[1].saturating_sub(radius)..=(pixel[1] + radius).min(height - 1))
+}
+
+/// The covered pixel of `rows` (read back whole, `width` wide) nearest to `pixel` within
+/// `radius`, the closer in depth on equal distance. `hit_at(k)` gives the id and depth at
+/// index k of the rows read, `None` for an empty pixel.
+pub(crate) fn nearest_in_rows(
+    width: u32,
+    pixel: [u32; 2],
+    radius: u32,
+    rows: std::ops::RangeInclusive<u32>,
+    hit_at: impl Fn(usize) -> Option<(u32, f32)>,
+) -> Option<PickHit> {
+    let y0 = *rows.start();
+    let mut best: Option<(u64, PickHit)> = None;
+    for y in rows {
+        for x in pixel[0].saturating_sub(radius)..=(pixel[0] + radius).min(width - 1) {
             let dist = (x.abs_diff(pixel[0]) as u64).pow(2) + (y.abs_diff(pixel[1]) as u64).pow(2);
             if dist > (radius as u64).pow(2) {
                 continue;
             }
-            let z = f32::from_bits(!*d);
-            let hit = PickHit {
-                id: !*id,
-                depth: z,
-                pixel: [x, y],
+            let Some((id, depth)) = hit_at(((y - y0) * width + x) as usize) else {
+                continue;
             };
             if best
                 .as_ref()
-                .is_none_or(|(bd, bz, _)| (dist, z) < (*bd, *bz))
+                .is_none_or(|(bd, b)| (dist, depth) < (*bd, b.depth))
             {
-                best = Some((dist, z, hit));
+                best = Some((
+                    dist,
+                    PickHit {
+                        id,
+                        depth,
+                        pixel: [x, y],
+                    },
+                ));
             }
         }
     }
-    Ok(best.map(|(_, _, h)| h))
+    best.map(|(_, h)| h)
 }

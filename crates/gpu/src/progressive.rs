@@ -13,6 +13,7 @@
 
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
+use crate::pick::{nearest_in_rows, rows_around, PickHit};
 use crate::raster::{
     grid, storage_group, storage_layout, PixelKind, RasterDispatch, RasterPipelines, RasterVariant,
     WORKGROUP,
@@ -368,46 +369,31 @@ impl ProgressiveState {
         self.next_fill
     }
 
-    /// The slot of the point the last frame showed nearest to `pixel` (within `radius`
-    /// pixels; on equal distance the closer in depth), with its depth; waits for the GPU.
+    /// The point the last frame showed nearest to `pixel` (within `radius` pixels; on equal
+    /// distance the closer in depth), its id being its slot; waits for the GPU.
     pub fn pick(
         &self,
         ctx: &GpuContext,
         pixel: [u32; 2],
         radius: u32,
-    ) -> Result<Option<(u32, f32)>, GpuError> {
+    ) -> Result<Option<PickHit>, GpuError> {
         let (w, h) = (self.width, self.height);
-        if !self.has_list || pixel[0] >= w || pixel[1] >= h {
+        let Some(rows) = rows_around(pixel, radius, w, h).filter(|_| self.has_list) else {
             return Ok(None);
-        }
-        let y0 = pixel[1].saturating_sub(radius);
-        let y1 = (pixel[1] + radius).min(h - 1);
+        };
         let row = w as u64 * 8;
+        let (y0, y1) = (*rows.start() as u64, *rows.end() as u64);
         let keys: Vec<u64> = bytemuck::pod_collect_to_vec(&read_range(
             ctx,
             &self.indexed,
-            y0 as u64 * row,
-            (y1 - y0 + 1) as u64 * row,
+            y0 * row,
+            (y1 - y0 + 1) * row,
         )?);
-        let mut best: Option<(u64, f32, u32)> = None;
-        for y in y0..=y1 {
-            for x in pixel[0].saturating_sub(radius)..=(pixel[0] + radius).min(w - 1) {
-                let Some(&key) = keys.get(((y - y0) * w + x) as usize) else {
-                    continue;
-                };
-                let dist =
-                    (x.abs_diff(pixel[0]) as u64).pow(2) + (y.abs_diff(pixel[1]) as u64).pow(2);
-                if key == 0 || dist > (radius as u64).pow(2) {
-                    continue;
-                }
-                let depth = f32::from_bits(!((key >> 32) as u32));
-                let slot = !(key as u32);
-                if best.is_none_or(|(d, z, _)| (dist, depth) < (d, z)) {
-                    best = Some((dist, depth, slot));
-                }
-            }
-        }
-        Ok(best.map(|(_, depth, slot)| (slot, depth)))
+        let hit_at = |k: usize| match keys.get(k) {
+            Some(&key) if key != 0 => Some((!(key as u32), f32::from_bits(!((key >> 32) as u32)))),
+            _ => None,
+        };
+        Ok(nearest_in_rows(w, pixel, radius, rows, hit_at))
     }
 
     /// The slots the last frame's Prepare pass listed (waits for the GPU); empty before the
