@@ -8,9 +8,11 @@
 #   quality PSNR of LoD images against full detail, 200 M points (issue 4)
 #   threads residency threads × loaders A/B on the 1 G-point store (run store first)
 #   diag    a quick 200 M-point orbit for profiling the residency step
-#   progressive      point files drawn while they load: 50 M-point LAS and LAZ (issue 11)
 #   first-frame      50 M-point LAS: render reading the file whole vs drawing while loading
 #   progressive-1g   brute-force progressive rendering of a 1 G-point LAS (issue 11)
+#   loading          50 M LAS/LAZ and a 200 M-point store read as a point file (--progressive),
+#                    and temporal reuse on that store (issue 11)
+#   view-first-frame `view --frames 1` of a 50 M-point LAS under a carried Xvfb (.xv/*.deb)
 set -euo pipefail
 phase=$1
 out=$2
@@ -89,23 +91,6 @@ case "$phase" in
     "$bin" bench "$small" --quality --vram-budget 1GiB --ram-budget 4GiB --loaders 8 \
       --json "$out/quality.json" 2>&1 | tee "$out/quality.txt"
     ;;
-  progressive)
-    # bench-read is the time to read the file (the first frame must come in a tenth of it);
-    # bench flies the orbit in real time while the file loads, at a 60 FPS target. At most
-    # eight files come back from the GPU machine: one log, one JSON per format.
-    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv >"$out/gpu.txt" || true
-    for ext in las laz; do
-      f=/tmp/p50.$ext
-      "$bin" generate --points 50M -o "$f" 2>&1 | tail -1 | tee -a "$out/log.txt"
-      cat "$f" >/dev/null
-      "$bin" bench-read "$f" 2>&1 | tee -a "$out/log.txt"
-      for round in 1 2; do
-        "$bin" bench "$f" --realtime --orbit-seconds 10 --target-fps 60 --vram-budget 8GiB \
-          --json "$out/p50-$ext.json" 2>&1 | tee -a "$out/log.txt"
-      done
-      rm -f "$f"
-    done
-    ;;
   first-frame)
     # The whole file read before the first frame (the in-memory path of a blending-free
     # 32-bit rasterizer) against drawing while loading, 50 M points, page cache warm.
@@ -126,6 +111,62 @@ case "$phase" in
     "$bin" bench-read "$f" 2>&1 | tee -a "$out/log.txt"
     "$bin" bench "$f" --realtime --orbit-seconds 20 --target-fps 60 --vram-budget 20GiB \
       --json "$out/p1g.json" 2>&1 | tee -a "$out/log.txt"
+    ;;
+  loading)
+    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv >"$out/gpu.txt" || true
+    log="$out/log.txt"
+    for ext in las laz; do
+      f=/tmp/p50.$ext
+      "$bin" generate --points 50M -o "$f" 2>&1 | tail -1 | tee -a "$log"
+      cat "$f" >/dev/null
+      "$bin" bench-read "$f" 2>&1 | tee -a "$log"
+      for round in 1 2; do
+        "$bin" bench "$f" --realtime --orbit-seconds 10 --target-fps 60 --vram-budget 8GiB \
+          --json "$out/p50-$ext.json" 2>&1 | tee -a "$log"
+      done
+      [ "$ext" = las ] || rm -f "$f"
+    done
+    s=/tmp/s200.pointlet
+    "$bin" generate --points 200M -o "$s" 2>&1 | tail -1 | tee -a "$log"
+    cat "$s" >/dev/null
+    for round in 1 2; do
+      "$bin" bench "$s" --progressive --realtime --orbit-seconds 10 --target-fps 60 \
+        --vram-budget 8GiB --json "$out/s200-progressive.json" 2>&1 | tee -a "$log"
+    done
+    # Temporal reuse: PSNR of moving frames against full detail, and frame times, per bucket.
+    for bucket in 1M 10M; do
+      for reuse in "" --temporal-reuse; do
+        echo "== bucket $bucket ${reuse:-no reuse}" | tee -a "$log"
+        "$bin" bench "$s" --frames 300 --orbit-seconds 10 --path-quality 10 --bucket "$bucket" \
+          $reuse 2>&1 | tail -11 | tee -a "$log"
+        "$bin" bench "$s" --realtime --orbit-seconds 10 --bucket "$bucket" $reuse 2>&1 \
+          | awk "NR <= 3" | tee -a "$log"
+      done
+    done
+    rm -f "$s" /tmp/p50.las
+    ;;
+  view-first-frame)
+    log="$out/log.txt"
+    "$bin" generate --points 50M -o /tmp/p50.las 2>&1 | tail -1 | tee -a "$log"
+    cat /tmp/p50.las >/dev/null
+    # view --frames 1 under Xvfb (carried in .xv, unpacked beside /, not over it).
+    x=/tmp/xv
+    mkdir -p "$x"
+    for f in .xv/*.deb; do dpkg -x "$f" "$x"; done
+    export LD_LIBRARY_PATH="$x/usr/lib/x86_64-linux-gnu:$x/lib/x86_64-linux-gnu"
+    export XKB_CONFIG_ROOT="$x/usr/share/X11/xkb"
+    [ -e /usr/bin/xkbcomp ] || ln -s "$x/usr/bin/xkbcomp" /usr/bin/xkbcomp || true
+    "$x/usr/bin/Xvfb" :77 -screen 0 1920x1080x24 -xkbdir "$x/usr/share/X11/xkb" -nolisten tcp \
+      >"$out/xvfb.txt" 2>&1 &
+    sleep 3
+    ls -la /tmp/.X11-unix >>"$out/xvfb.txt" 2>&1 || true
+    for raster in atomic-min-32 reduce-early-z; do
+      DISPLAY=:77 RUST_BACKTRACE=1 timeout 120 \
+        /usr/bin/time -f "view --frames 1 --raster $raster: %e s wall, %M KiB" \
+        "$bin" view /tmp/p50.las --frames 1 --screenshot "/tmp/v-$raster.png" --raster "$raster" \
+        2>&1 | tee -a "$log" || echo "view --raster $raster failed" | tee -a "$log"
+    done
+    rm -f /tmp/p50.las
     ;;
   *)
     echo "unknown phase $phase" >&2

@@ -169,7 +169,8 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(p) = &args.plot {
         plot_format(p)?;
     }
-    if !crate::load::is_store_path(&args.store) && args.store.is_file() {
+    let point_file = !crate::load::is_store_path(&args.store) && args.store.is_file();
+    if point_file || args.draw.progressive {
         if !args.draw.raster.accumulates() {
             bail!(
                 "{}: bench draws point files progressively, which needs a closest-point \

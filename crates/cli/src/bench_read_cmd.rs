@@ -1,8 +1,12 @@
 //! `pointlet bench-read`: decode inputs and do nothing else — the baseline `convert` is
 //! measured against (conversion should cost at most 2× decoding). Files that come in parts
-//! (LAS, LAZ) are decoded part by part on every core, as conversion reads them.
+//! (LAS, LAZ) are decoded part by part on every core, as conversion reads them. A store is
+//! read as progressive rendering reads it with `--progressive` (its pointlets as parts).
+//! `--color-only MODE` decodes only what colouring by MODE reads, as the progressive loader
+//! does (stores keep their columns apart; point files decode whole records anyway).
 
 use anyhow::{anyhow, Result};
+use pointlet_core::color::ColorMode;
 use pointlet_core::{PartedSource, PointBatch};
 use pointlet_io::PointReader;
 use rayon::prelude::*;
@@ -17,6 +21,9 @@ pub struct Args {
     /// Read every file front to back on one thread, even one that comes in parts.
     #[arg(long)]
     pub sequential: bool,
+    /// Decode positions and only what colouring by this mode reads (rgb, intensity, …).
+    #[arg(long, value_parser = parse_mode)]
+    pub color_only: Option<ColorMode>,
     #[command(flatten)]
     pub read: crate::load::ReadArgs,
 }
@@ -45,7 +52,18 @@ impl Tally {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let readers = crate::convert_cmd::open_inputs(&args.inputs, &args.read)?;
+    let (stores, files): (Vec<PathBuf>, Vec<PathBuf>) = args
+        .inputs
+        .iter()
+        .cloned()
+        .partition(|p| crate::load::is_store_path(p));
+    let mut readers = Vec::new();
+    if !files.is_empty() {
+        readers = crate::convert_cmd::open_inputs(&files, &args.read)?;
+    }
+    for s in &stores {
+        readers.push(pointlet_engine::open_points(s, &args.read.options())?);
+    }
     let started = Instant::now();
     let mut total = Tally::default();
     let mut parted_files = 0;
@@ -54,7 +72,7 @@ pub fn run(args: Args) -> Result<()> {
         let tally = match r.parted().filter(|_| !args.sequential) {
             Some(parts) => {
                 parted_files += 1;
-                decode_parts(r.as_ref(), parts)?
+                decode_parts(r.as_ref(), parts, args.color_only)?
             }
             None => decode_sequentially(r.as_mut())?,
         };
@@ -88,18 +106,33 @@ fn decode_sequentially(r: &mut dyn PointReader) -> Result<Tally> {
 }
 
 /// Every part decoded once, in parallel, each thread reusing its own batch and scratch buffer.
-fn decode_parts(r: &dyn PointReader, parts: &dyn PartedSource) -> Result<Tally> {
+fn decode_parts(
+    r: &dyn PointReader,
+    parts: &dyn PartedSource,
+    color_only: Option<ColorMode>,
+) -> Result<Tally> {
     let layout = r.meta().layout;
     (0..parts.part_sizes().len())
         .into_par_iter()
         .map_init(
             || (PointBatch::new(layout), Vec::new()),
             |(batch, scratch), i| {
-                parts
-                    .decode_part(i, batch, scratch)
-                    .map(|()| Tally::of(batch))
-                    .map_err(|e| anyhow!(e))
+                match color_only {
+                    Some(mode) => parts.decode_part_for(i, batch, scratch, mode),
+                    None => parts.decode_part(i, batch, scratch),
+                }
+                .map(|()| Tally::of(batch))
+                .map_err(|e| anyhow!(e))
             },
         )
         .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
+}
+
+fn parse_mode(s: &str) -> Result<ColorMode, String> {
+    match crate::view_args::parse_color(s)? {
+        crate::view_args::ColorArg::Mode(m) => Ok(m),
+        crate::view_args::ColorArg::Extra(_) => {
+            Err("an extra-bytes attribute is read with the extra bytes: use --color-only rgb, intensity, …".into())
+        }
+    }
 }

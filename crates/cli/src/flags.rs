@@ -2,7 +2,7 @@
 //! ignored: which flags each command's inputs and modes use, in one place. A flag counts as
 //! given when it was typed (clap's value source), whatever its value.
 
-use crate::view_args::CameraArgs;
+use crate::view_args::{CameraArgs, DrawArgs};
 use crate::Command;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
@@ -70,7 +70,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             drawing(
                 given,
                 a.input.as_deref(),
-                a.draw.raster,
+                &a.draw,
                 &store_only,
                 &also_progressive,
             )
@@ -78,11 +78,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
         Command::View(a) => {
             camera(given, &a.camera)?;
             let store_only = ["vram_budget", "ram_budget", "bucket", "converge_timeout"];
-            let progressive = a
-                .input
-                .as_deref()
-                .is_some_and(|p| crate::progressive_cmd::is_progressive(Some(p), a.draw.raster));
-            if !progressive {
+            if !crate::progressive_cmd::is_progressive(a.input.as_deref(), &a.draw) {
                 given.refuse(
                     &PROGRESSIVE,
                     "point files drawn while they load",
@@ -92,12 +88,16 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             drawing(
                 given,
                 a.input.as_deref(),
-                a.draw.raster,
+                &a.draw,
                 &store_only,
                 &["vram_budget", "converge_timeout"],
             )
         }
-        Command::Bench(a) if !crate::load::is_store_path(&a.store) => {
+        Command::Bench(a) if !crate::load::is_store_path(&a.store) || a.draw.progressive => {
+            progressive_flag(given, Some(&a.store), &a.draw)?;
+            if crate::load::is_store_path(&a.store) {
+                given.refuse(&READING, "point files", "a store")?;
+            }
             let kind = "a point file (drawn while it loads)";
             given.refuse(
                 &SHUFFLED,
@@ -198,12 +198,32 @@ fn camera(given: &Given, camera: &CameraArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// `--progressive` draws stores only, with a closest-point rasterizer.
+fn progressive_flag(given: &Given, input: Option<&Path>, draw: &DrawArgs) -> Result<(), String> {
+    if !given.has("progressive") {
+        return Ok(());
+    }
+    match input {
+        Some(p) if crate::load::is_store_path(p) && !draw.raster.accumulates() => Err(format!(
+            "--progressive draws a store with a closest-point --raster (atomic-min, early-z, \
+             reduce, reduce-early-z, dedup), not {}",
+            draw.raster.name()
+        )),
+        Some(p) if crate::load::is_store_path(p) => Ok(()),
+        _ => Err(format!(
+            "--progressive applies to stores only, not to {} (point files are always drawn \
+             while they load)",
+            input_kind(input)
+        )),
+    }
+}
+
 /// `render` and `view`: stores, point files drawn while they load and inputs drawn whole use
 /// different flags; `progressive_too` of `store_only` apply to loading point files as well.
 fn drawing(
     given: &Given,
     input: Option<&Path>,
-    raster: RasterVariant,
+    draw: &DrawArgs,
     store_only: &[&str],
     progressive_too: &[&str],
 ) -> Result<(), String> {
@@ -211,12 +231,16 @@ fn drawing(
     if input.is_some() {
         given.refuse(&["demo_points"], "the demo scene (without INPUT)", kind)?;
     }
+    progressive_flag(given, input, draw)?;
     match input {
-        Some(p) if crate::load::is_store_path(p) => {
+        Some(p) if crate::load::is_store_path(p) && !draw.progressive => {
             given.refuse(&READING, "point files", kind)?;
-            store_drawing(given, raster)
+            store_drawing(given, draw.raster)
         }
-        Some(p) if crate::progressive_cmd::is_progressive(Some(p), raster) => {
+        Some(p) if crate::progressive_cmd::is_progressive(Some(p), draw) => {
+            if crate::load::is_store_path(p) {
+                given.refuse(&READING, "point files", "a store")?;
+            }
             let kind = "a point file drawn while it loads (a closest-point --raster)";
             given.refuse(
                 &SHUFFLED,

@@ -15,10 +15,12 @@ use std::time::Instant;
 /// Default GPU memory for a point file's shuffled buffer.
 pub const DEFAULT_VRAM_BUDGET: u64 = 2 << 30;
 
-/// Point files are drawn progressively by the closest-point rasterizers; the blending ones
-/// (HQS, HQS1R), the 32-bit path and hardware points need the whole file in memory.
-pub fn is_progressive(input: Option<&Path>, variant: RasterVariant) -> bool {
-    input.is_some_and(|p| !crate::load::is_store_path(p)) && variant.accumulates()
+/// Point files (and stores with `--progressive`) are drawn progressively by the closest-point
+/// rasterizers; the blending ones (HQS, HQS1R), the 32-bit path and hardware points need the
+/// whole file in memory.
+pub fn is_progressive(input: Option<&Path>, draw: &DrawArgs) -> bool {
+    input.is_some_and(|p| !crate::load::is_store_path(p) || draw.progressive)
+        && draw.raster.accumulates()
 }
 
 /// The colouring asked for, resolved against the file for `extra:NAME` (the load thread picks
@@ -32,7 +34,7 @@ pub fn resolve_color(
         None => Ok(None),
         Some(ColorArg::Mode(m)) => Ok(Some(*m)),
         Some(extra @ ColorArg::Extra(_)) => {
-            let reader = pointlet_io::open_with(path, &read.options())?;
+            let reader = pointlet_engine::open_points(path, &read.options())?;
             let meta = reader.meta();
             let extras = crate::scene::extras_of(&meta.vlrs, &meta.layout);
             let name = path.display().to_string();

@@ -76,19 +76,19 @@ pub fn reorder(set: PointSet, order: pointlet_core::order::VertexOrder) -> Point
 
 pub fn run(args: Args) -> Result<()> {
     crate::image_out::check_png_path(&args.output)?;
+    if let Some(file) = args
+        .input
+        .as_deref()
+        .filter(|p| crate::progressive_cmd::is_progressive(Some(p), &args.draw))
+    {
+        return crate::progressive_cmd::render(&args, file);
+    }
     if let Some(store) = args
         .input
         .as_deref()
         .filter(|p| crate::load::is_store_path(p))
     {
         return render_store(&args, store);
-    }
-    if let Some(file) = args
-        .input
-        .as_deref()
-        .filter(|p| crate::progressive_cmd::is_progressive(Some(p), args.draw.raster))
-    {
-        return crate::progressive_cmd::render(&args, file);
     }
     let (ctx, variant) = open_gpu(&args.draw)?;
     let scene = crate::scene::load(

@@ -100,6 +100,10 @@ pub struct DrawArgs {
     /// Points per GPU page (power of two, 256–65536).
     #[arg(long, default_value_t = 4096)]
     pub page_size: u32,
+    /// Draw a store as point files are drawn: every point, read while drawing, no LoD (a
+    /// closest-point --raster).
+    #[arg(long)]
+    pub progressive: bool,
 }
 
 impl DrawArgs {

@@ -59,10 +59,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let progressive =
-        crate::progressive_cmd::is_progressive(args.input.as_deref(), args.draw.raster);
+    let progressive = crate::progressive_cmd::is_progressive(args.input.as_deref(), &args.draw);
     let input = match args.input.clone() {
-        Some(p) if crate::load::is_store_path(&p) => Input::Store(p),
+        Some(p) if crate::load::is_store_path(&p) && !progressive => Input::Store(p),
         Some(p) => Input::File {
             path: p,
             read: args.read.options(),

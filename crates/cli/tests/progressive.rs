@@ -202,3 +202,86 @@ fn flags_that_cannot_apply_to_a_loading_point_file_are_refused() {
     );
     usage_fails(&["bench", s(&store), "--columns", "x,y,z"], &["--columns"]);
 }
+
+#[test]
+fn a_store_with_progressive_is_drawn_as_its_point_file_is() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let las = data("simple.las");
+    let store = dir.path().join("simple.pointlet");
+    ok(&["convert", s(&las), "-o", s(&store)]);
+    let draw = |input: &Path, png: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            s(input),
+            "-o",
+            s(png),
+            "--width",
+            "200",
+            "--height",
+            "120",
+            "--color",
+            "intensity",
+        ];
+        args.extend_from_slice(extra);
+        let err = ok_stderr(&args);
+        assert!(err.contains("loaded in"), "{}: {err}", input.display());
+        png_rgba(png)
+    };
+    let from_store = draw(&store, &dir.path().join("s.png"), &["--progressive"]);
+    let from_file = draw(&las, &dir.path().join("f.png"), &[]);
+    assert!(lit(&from_store) > 500, "nothing drawn");
+    // The same points (the store keeps LAS's quantization); positions relative to the store's
+    // bounds instead of the header's may round differently in f32 at a few pixels.
+    let same = from_store
+        .chunks_exact(4)
+        .zip(from_file.chunks_exact(4))
+        .filter(|(a, b)| a == b)
+        .count();
+    assert!(
+        same * 1000 >= 998 * 200 * 120,
+        "{same} of {} pixels equal",
+        200 * 120
+    );
+    let out = ok(&[
+        "bench",
+        s(&store),
+        "--progressive",
+        "--frames",
+        "4",
+        "--width",
+        "160",
+        "--height",
+        "100",
+    ]);
+    assert!(out.contains("fully loaded after"), "{out}");
+    for extra in [&[][..], &["--color-only", "rgb"][..]] {
+        let mut args = vec!["bench-read", s(&store)];
+        args.extend_from_slice(extra);
+        let out = ok(&args);
+        assert!(out.contains("decoded 1065 points"), "{out}");
+    }
+    usage_fails(
+        &["render", s(&las), "-o", "x.png", "--progressive"],
+        &["--progressive", "stores only"],
+    );
+    usage_fails(
+        &[
+            "render",
+            s(&store),
+            "-o",
+            "x.png",
+            "--progressive",
+            "--raster",
+            "hqs",
+        ],
+        &["--progressive", "closest-point"],
+    );
+    usage_fails(
+        &["bench", s(&store), "--progressive", "--columns", "x,y,z"],
+        &["--columns"],
+    );
+    usage_fails(
+        &["bench", s(&store), "--progressive", "--bucket", "1M"],
+        &["--bucket"],
+    );
+}

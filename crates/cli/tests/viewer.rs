@@ -235,6 +235,22 @@ fn viewer_window_screenshot_and_bad_input() {
         ],
         &["png"],
     );
+    // Without the keyboard data X11 needs (xkb-data), winit panics: the viewer says so instead.
+    let out = Command::new(env!("CARGO_BIN_EXE_pointlet"))
+        .args(["view", s(&data("simple.las")), "--frames", "1"])
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XKB_CONFIG_ROOT", dir.path().join("no-xkb"))
+        .output()
+        .expect("running pointlet view");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot connect to a display")
+            && err.contains("XKB")
+            && !err.contains("panicked"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! A LAS file's records and a LAZ file's chunks can be decoded independently, so conversion
 //! hands parts to every core instead of reading the file front to back on one thread.
 
+use crate::color::ColorMode;
 use crate::PointBatch;
 
 /// Why a part could not be decoded: the reader's own error (it names the file and offset).
@@ -22,4 +23,18 @@ pub trait PartedSource: Sync {
         out: &mut PointBatch,
         scratch: &mut Vec<u8>,
     ) -> Result<(), PartError>;
+
+    /// Decodes part `i` as [`decode_part`](Self::decode_part) does, but only the positions and
+    /// what colouring by `mode` reads need to be complete: a source that stores columns apart
+    /// may leave the others empty. Sources that decode whole records keep this default.
+    fn decode_part_for(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        scratch: &mut Vec<u8>,
+        mode: ColorMode,
+    ) -> Result<(), PartError> {
+        let _ = mode;
+        self.decode_part(i, out, scratch)
+    }
 }

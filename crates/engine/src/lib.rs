@@ -10,6 +10,7 @@ mod residency;
 mod scene;
 mod source;
 mod step;
+mod store_points;
 
 pub use progressive_scene::{
     FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene, SLOT_BYTES,
@@ -19,6 +20,7 @@ pub use scene::{
     target_bytes, FrameReport, PickedPoint, SceneConfig, StepReport, VirtualScene, RESIDENCY_PARTS,
 };
 pub use source::{fit_scale, StoreSource};
+pub use store_points::{is_store, open_points, StorePoints};
 
 use thiserror::Error;
 

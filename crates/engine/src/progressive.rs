@@ -19,7 +19,9 @@ use pointlet_core::color::{
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::progressive::Reservoir;
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
-use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer, Targets};
+use pointlet_gpu::shuffle::{
+    EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
+};
 use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::{PointReader, ReadOptions};
 use rayon::prelude::*;
@@ -35,6 +37,8 @@ use std::time::{Duration, Instant};
 pub const BATCH_POINTS: usize = 500_000;
 /// Encoded batches that may wait for the render thread.
 pub const QUEUE_BATCHES: usize = 4;
+/// Batches of LAS/LAZ parts decoded at once.
+pub const BATCHES_DECODING: usize = 3;
 
 /// Words of a Full16 position.
 const WORDS: usize = 3;
@@ -55,6 +59,9 @@ pub struct LoadConfig {
     pub queue_batches: usize,
     /// LAS/LAZ parts a batch takes at least, beyond `batch_points` (0: one per decoding thread).
     pub parallel_parts: usize,
+    /// Batches of LAS/LAZ parts decoded at once (at least 1), so that no core waits for the
+    /// slowest part of one batch; they are handed over in file order.
+    pub batches_decoding: usize,
     /// What text files do not say for themselves.
     pub read: ReadOptions,
     /// Slots of the shuffled buffer at most (the VRAM budget's points); a file with more
@@ -74,6 +81,7 @@ impl Default for LoadConfig {
             batch_points: BATCH_POINTS,
             queue_batches: QUEUE_BATCHES,
             parallel_parts: 0,
+            batches_decoding: BATCHES_DECODING,
             read: ReadOptions::default(),
             max_slots: u64::from(u32::MAX),
             colors_only: false,
@@ -152,12 +160,14 @@ pub struct Uploaded {
 
 /// Encoded points of the file: those of indices `first..first + colors.len()`, or with
 /// `slots`, points past the reservoir's capacity with the slot each replaces. `positions` is
-/// empty for a colours-only load.
+/// empty for a colours-only load. With `staged`, the points are in mapped upload memory
+/// instead (indices `first..first + read`, within the capacity) and both vectors are empty.
 struct EncodedPoints {
     first: u64,
     slots: Option<Vec<u32>>,
     positions: Vec<u32>,
     colors: Vec<u32>,
+    staged: Option<StagedBatch>,
     /// Points of the file this message accounts for (left-out points included).
     read: u64,
 }
@@ -180,6 +190,8 @@ enum Stop {
 struct Shared {
     loaded: AtomicU64,
     color: OnceLock<LoadColor>,
+    /// The GPU, once the render thread has one: batches then go to mapped upload memory.
+    device: OnceLock<wgpu::Device>,
 }
 
 /// What the load thread needs besides the reader.
@@ -196,6 +208,7 @@ struct Job {
     scale: Option<ColorScale>,
     batch_points: usize,
     parallel_parts: usize,
+    batches_decoding: usize,
     shared: Arc<Shared>,
     queue: SyncSender<Message>,
 }
@@ -229,8 +242,8 @@ impl ProgressiveLoad {
     /// Opens `path` and starts its load thread. Errors here (a missing file, a bad header, a
     /// colouring the file cannot give) mean nothing was loaded.
     pub fn start(path: &Path, config: LoadConfig) -> Result<Self, EngineError> {
-        let reader = pointlet_io::open_with(path, &config.read)
-            .map_err(|e| EngineError::Read(e.to_string()))?;
+        let reader =
+            crate::open_points(path, &config.read).map_err(|e| EngineError::Read(e.to_string()))?;
         let meta = reader.meta();
         let asked = config.scale.map(|s| s.mode).or(config.color);
         if let Some(mode) = asked.filter(|m| !m.available_in(&meta.layout)) {
@@ -279,6 +292,7 @@ impl ProgressiveLoad {
             scale: config.scale,
             batch_points: config.batch_points.max(1),
             parallel_parts: config.parallel_parts,
+            batches_decoding: config.batches_decoding.max(1),
             shared: Arc::clone(&shared),
             queue: tx,
         };
@@ -388,6 +402,7 @@ impl ProgressiveLoad {
                 dst.permutation().len()
             )));
         }
+        self.shared.device.get_or_init(|| ctx.device.clone());
         let mut up = Uploaded::default();
         while up.batches < max_batches {
             let Some(queue) = &self.queue else { break };
@@ -409,7 +424,9 @@ impl ProgressiveLoad {
                             })?,
                         },
                     };
-                    if self.colors_only {
+                    if let (Some(staged), Targets::Permuted { first }) = (&b.staged, targets) {
+                        pass.scatter_staged(ctx, dst, first, staged)?;
+                    } else if self.colors_only {
                         pass.scatter_colors(ctx, dst, targets, &b.colors)?;
                     } else {
                         let batch = EncodedBatch {
@@ -524,6 +541,7 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
         0 => rayon::current_num_threads(),
         n => n,
     };
+    let mut plan = Vec::new();
     let (mut part, mut first) = (0, 0u64);
     while part < sizes.len() {
         let mut end = part + 1;
@@ -534,59 +552,178 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
             points += sizes[end];
             end += 1;
         }
-        check_fits(job, first, points)?;
-        let words = if job.colors_only { 0 } else { WORDS };
-        let mut out = EncodedPoints {
+        plan.push(PlannedBatch {
+            parts: part..end,
             first,
-            slots: None,
-            positions: vec![0; points as usize * words],
-            colors: vec![0; points as usize],
-            read: points,
-        };
-        // Each part's slices of the batch, so that threads encode in place.
-        let mut jobs = Vec::with_capacity(end - part);
-        let (mut pos, mut col) = (&mut out.positions[..], &mut out.colors[..]);
-        for (i, &size) in sizes.iter().enumerate().take(end).skip(part) {
-            let (p, rest_p) = std::mem::take(&mut pos).split_at_mut(size as usize * words);
-            let (c, rest_c) = std::mem::take(&mut col).split_at_mut(size as usize);
-            jobs.push((i, p, c));
-            (pos, col) = (rest_p, rest_c);
-        }
-        let results: Vec<Result<(), String>> = jobs
-            .into_par_iter()
-            .map_init(
-                || (PointBatch::default(), Vec::new()),
-                |(batch, scratch), (i, p, c)| {
-                    parts
-                        .decode_part(i, batch, scratch)
-                        .map_err(|e| e.to_string())?;
-                    if batch.len() != c.len() {
-                        return Err(format!(
-                            "{}: part {i} decoded to {} points, its size is {}",
-                            job.path.display(),
-                            batch.len(),
-                            c.len()
-                        ));
-                    }
-                    encode_into(batch, job.origin, &color.scale, p, c);
-                    Ok(())
-                },
-            )
-            .collect();
-        // The parts before the first that failed are good: they go to the GPU before the error.
-        let good = results.iter().take_while(|r| r.is_ok()).count();
-        let kept: u64 = sizes[part..part + good].iter().sum();
-        out.positions.truncate(kept as usize * words);
-        out.colors.truncate(kept as usize);
-        out.read = kept;
-        send(job, out)?;
-        if let Some(Err(message)) = results.into_iter().nth(good) {
-            return Err(Stop::Failed(message));
-        }
+            points,
+        });
         first += points;
         part = end;
     }
-    Ok(())
+    // Several batches decode at once; dropping the load cancels those not started.
+    let cancelled = std::sync::atomic::AtomicBool::new(false);
+    rayon::in_place_scope(|scope| {
+        let mut pending = std::collections::VecDeque::with_capacity(job.batches_decoding);
+        let mut planned = plan.into_iter();
+        loop {
+            while pending.len() < job.batches_decoding {
+                let Some(batch) = planned.next() else { break };
+                let (tx, rx) = sync_channel(1);
+                let cancelled = &cancelled;
+                scope.spawn(move |_| {
+                    if !cancelled.load(Ordering::Relaxed) {
+                        // The receiver is gone only when loading already stopped.
+                        let _ = tx.send(decode_batch(parts, job, &color, batch));
+                    }
+                });
+                pending.push_back(rx);
+            }
+            let Some(rx) = pending.pop_front() else {
+                return Ok(());
+            };
+            let end = match rx.recv() {
+                Ok(decoded) => decoded,
+                Err(_) => Err(Stop::Failed(format!(
+                    "{}: a decoding task ended without its batch",
+                    job.path.display()
+                ))),
+            }
+            .and_then(|(out, failure)| {
+                send(job, out)?;
+                failure.map_or(Ok(()), |message| Err(Stop::Failed(message)))
+            });
+            if end.is_err() {
+                cancelled.store(true, Ordering::Relaxed);
+                return end;
+            }
+        }
+    })
+}
+
+/// Parts that make one batch, and the index of its first point in the file.
+struct PlannedBatch {
+    parts: std::ops::Range<usize>,
+    first: u64,
+    points: u64,
+}
+
+/// Decodes and encodes the parts of `batch` in parallel: the points of the parts before the
+/// first that failed, and that part's error.
+fn decode_batch(
+    parts: &dyn PartedSource,
+    job: &Job,
+    color: &LoadColor,
+    batch: PlannedBatch,
+) -> Result<(EncodedPoints, Option<String>), Stop> {
+    let sizes = parts.part_sizes();
+    let PlannedBatch {
+        parts: range,
+        first,
+        points,
+    } = batch;
+    check_fits(job, first, points)?;
+    let words = if job.colors_only { 0 } else { WORDS };
+    // Within the reservoir's capacity and once the GPU is there, straight into upload memory.
+    let staged = job
+        .shared
+        .device
+        .get()
+        .filter(|_| !job.colors_only && first + points <= job.reservoir.capacity())
+        .and_then(|device| StagedBatch::new(device, PointEncoding::Full16, points).ok());
+    let in_memory = if staged.is_some() { 0 } else { points as usize };
+    let mut out = EncodedPoints {
+        first,
+        slots: None,
+        positions: vec![0; in_memory * words],
+        colors: vec![0; in_memory],
+        staged: None,
+        read: points,
+    };
+    let mut view = staged
+        .as_ref()
+        .map(StagedBatch::map)
+        .transpose()
+        .map_err(|e| Stop::Failed(format!("{}: {e}", job.path.display())))?;
+    // Each part's share of the batch, so that threads encode in place.
+    let mut jobs = Vec::with_capacity(range.len());
+    match (&staged, view.as_mut()) {
+        (Some(staged), Some(view)) => {
+            let regions = staged.regions(view);
+            let (mut pos, mut col) = (regions.positions, regions.colors);
+            for i in range.clone() {
+                let size = sizes[i] as usize;
+                let (p, rest_p) = pos.split_at(size * WORDS * 4);
+                let (c, rest_c) = col.split_at(size * 4);
+                jobs.push((i, Share::Mapped(p, c)));
+                (pos, col) = (rest_p, rest_c);
+            }
+        }
+        _ => {
+            let (mut pos, mut col) = (&mut out.positions[..], &mut out.colors[..]);
+            for i in range.clone() {
+                let size = sizes[i] as usize;
+                let (p, rest_p) = std::mem::take(&mut pos).split_at_mut(size * words);
+                let (c, rest_c) = std::mem::take(&mut col).split_at_mut(size);
+                jobs.push((i, Share::Slices(p, c)));
+                (pos, col) = (rest_p, rest_c);
+            }
+        }
+    }
+    let results: Vec<Result<(), String>> = jobs
+        .into_par_iter()
+        .map_init(
+            || (PointBatch::default(), Vec::new(), Vec::new(), Vec::new()),
+            |(batch, scratch, p_words, c_words), (i, share)| {
+                parts
+                    .decode_part_for(i, batch, scratch, color.scale.mode)
+                    .map_err(|e| e.to_string())?;
+                if batch.len() as u64 != sizes[i] {
+                    return Err(format!(
+                        "{}: part {i} decoded to {} points, its size is {}",
+                        job.path.display(),
+                        batch.len(),
+                        sizes[i]
+                    ));
+                }
+                match share {
+                    Share::Slices(p, c) => encode_into(batch, job.origin, &color.scale, p, c),
+                    Share::Mapped(mut p, mut c) => {
+                        // Encoded in cache, then written once: mapped memory may be
+                        // write-combining.
+                        p_words.resize(batch.len() * WORDS, 0u32);
+                        c_words.resize(batch.len(), 0u32);
+                        encode_into(batch, job.origin, &color.scale, p_words, c_words);
+                        p.write(p_words).map_err(|e| e.to_string())?;
+                        c.write(c_words).map_err(|e| e.to_string())?;
+                    }
+                }
+                Ok(())
+            },
+        )
+        .collect();
+    // The parts before the first that failed are good: they go to the GPU before the error.
+    let good = results.iter().take_while(|r| r.is_ok()).count();
+    let kept: u64 = sizes[range.start..range.start + good].iter().sum();
+    drop(view);
+    match staged {
+        Some(mut staged) => {
+            staged.finish(kept);
+            out.staged = Some(staged);
+        }
+        None => {
+            out.positions.truncate(kept as usize * words);
+            out.colors.truncate(kept as usize);
+        }
+    }
+    out.read = kept;
+    Ok((out, results.into_iter().nth(good).and_then(Result::err)))
+}
+
+/// One part's share of a batch's encoded points.
+enum Share<'a> {
+    Slices(&'a mut [u32], &'a mut [u32]),
+    /// Bytes of mapped upload memory: position words, colours.
+    Mapped(StagedRegion<'a>, StagedRegion<'a>),
 }
 
 /// Batches read front to back; the first one chooses the colouring, as `render` does.
@@ -620,6 +757,7 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
             slots: None,
             positions: vec![0; n * words],
             colors: vec![0; n],
+            staged: None,
             read: n as u64,
         };
         encode_into(
@@ -705,6 +843,7 @@ fn send(job: &Job, batch: EncodedPoints) -> Result<(), Stop> {
                 slots: None,
                 positions: batch.positions[..inside * words].to_vec(),
                 colors: batch.colors[..inside].to_vec(),
+                staged: None,
                 read: inside as u64,
             });
         }
@@ -722,6 +861,7 @@ fn send(job: &Job, batch: EncodedPoints) -> Result<(), Stop> {
             slots: Some(kept.iter().map(|(s, _)| *s).collect()),
             positions: Vec::with_capacity(kept.len() * words),
             colors: Vec::with_capacity(kept.len()),
+            staged: None,
             read: n - inside as u64,
         };
         for (_, k) in &kept {

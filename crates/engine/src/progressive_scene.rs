@@ -395,9 +395,7 @@ impl ProgressiveScene {
             self.state = Some(ProgressiveState::new(ctx, target)?);
         }
         let view = (*camera, *hidden_classes);
-        if size_changed || up.batches > 0 || self.last_view != Some(view) {
-            self.filled_since_change = 0;
-        }
+        let changed = size_changed || up.batches > 0 || self.last_view != Some(view);
         self.last_view = Some(view);
         let slots = self.slots();
         let budget = self.config.fixed_budget.unwrap_or(self.budget.current());
@@ -411,6 +409,10 @@ impl ProgressiveScene {
         let Some(state) = self.state.as_mut() else {
             return Err(EngineError::Config("no progressive state".into()));
         };
+        if changed {
+            self.filled_since_change = 0;
+            state.changed();
+        }
         self.renderer
             .render(ctx, &self.cloud, state, camera, &settings, target)?;
         let frame = self.renderer.frames();

@@ -20,7 +20,7 @@ pub struct StoreSource {
 }
 
 /// The stream a colour mode reads besides positions (none for elevation).
-fn stream_for(mode: ColorMode) -> Option<StreamKind> {
+pub(crate) fn stream_for(mode: ColorMode) -> Option<StreamKind> {
     match mode {
         ColorMode::Rgb => Some(StreamKind::Rgb),
         ColorMode::Intensity => Some(StreamKind::Intensity),

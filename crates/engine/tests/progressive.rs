@@ -234,8 +234,8 @@ fn a_las_cut_while_loading_keeps_the_points_before_the_cut_and_reports_once() {
     drop(bytes);
     let path = dir.path().join("cut.las");
     let mut gpu = Gpu::new();
-    // One batch queued and one held: before any upload the load thread has read at most two
-    // batches, all before the cut. With two parts per batch the cut falls in a batch's second
+    // One batch decoding and one queued: before any upload the load thread has read at most
+    // two batches, all before the cut. With two parts per batch the cut falls in a batch's second
     // part, whose first part must still arrive.
     for (parts_per_batch, cut) in [(1, 100_000), (2, 250_000)] {
         std::fs::copy(&whole, &path).unwrap();
@@ -243,6 +243,7 @@ fn a_las_cut_while_loading_keeps_the_points_before_the_cut_and_reports_once() {
             batch_points: (parts_per_batch * LAS_PART) as usize,
             queue_batches: 1,
             parallel_parts: 1,
+            batches_decoding: 1,
             ..Default::default()
         };
         let mut load = ProgressiveLoad::start(&path, config).unwrap();

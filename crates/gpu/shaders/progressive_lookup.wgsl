@@ -2,12 +2,16 @@
 // Fill passes write point indices, the image shows their colours): turns each pixel's
 // ~depth << 32 | ~slot key into the ~depth << 32 | ~rgba key the existing 64-bit resolve reads
 // (resolve_min64.wgsl). One dispatch per point-buffer chunk, each converting the pixels whose
-// slot lies in its chunk; empty pixels stay 0 (the colour keys are cleared first).
+// slot lies in its chunk; empty pixels stay 0 (the colour keys are cleared first). Where the
+// colour keys the Fill and Reproject passes kept (color_keys_kept.wgsl) are at the same depth,
+// their colour wins: among points at exactly the closest depth, the smaller colour, as in the
+// static path.
 
 override PAGE_SIZE: u32 = 4096u;
 
 @group(1) @binding(0) var<storage, read_write> indexed: array<u64>;
 @group(1) @binding(1) var<storage, read_write> keys: array<u64>;
+@group(1) @binding(2) var<storage, read_write> color_keys: array<u64>;
 
 @compute @workgroup_size(8, 8)
 fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -24,5 +28,11 @@ fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
     if slot < first || slot - first >= arrayLength(&colors) {
         return;
     }
-    keys[pixel] = (key & 0xffffffff00000000lu) | u64(~load_color(slot - first));
+    let depth = key & 0xffffffff00000000lu;
+    let kept = color_keys[pixel];
+    if (kept & 0xffffffff00000000lu) == depth {
+        keys[pixel] = kept;
+    } else {
+        keys[pixel] = depth | u64(~load_color(slot - first));
+    }
 }

@@ -3,6 +3,7 @@
 // with this frame's camera, keyed like the Fill pass (~depth << 32 | ~slot, atomicMax: see
 // raster_min64.wgsl with INDEX_KEYS). The paper copies the points into its Reproject buffer; we
 // keep only their slots and fetch each point from the shuffled buffer by index.
+// The colour key goes to color_keys as in the Fill pass (color_keys_kept.wgsl), for the tie rule.
 // One thread per list entry; one dispatch per point-buffer chunk, each drawing the entries whose
 // slot lies in its chunk. Every page of a shuffled buffer shares one origin: infos[0].
 
@@ -13,6 +14,7 @@ override PAGE_SIZE: u32 = 4096u;
 @group(1) @binding(1) var<storage, read_write> list: array<u32>;
 // Entries of `list` (the Prepare pass's counter).
 @group(1) @binding(2) var<storage, read_write> list_len: array<u32>;
+@group(1) @binding(3) var<storage, read_write> color_keys: array<atomic<u64>>;
 
 @compute @workgroup_size(WG)
 fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -32,8 +34,10 @@ fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     // Classes hidden since the previous frame drop out here.
-    if class_hidden(load_color(index)) {
+    let color = load_color(index);
+    if class_hidden(color) {
         return;
     }
     atomicMax(&framebuffer[hit.pixel], (u64(~hit.depth_bits) << 32u) | u64(~slot));
+    atomicMax(&color_keys[hit.pixel], (u64(~hit.depth_bits) << 32u) | u64(~color));
 }

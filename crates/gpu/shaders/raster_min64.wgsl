@@ -4,7 +4,8 @@
 // depth << 32 | colour (closest point; on equal depth the smaller colour), but an empty pixel is
 // 0, so the framebuffer is cleared with a plain buffer clear instead of a fill pass.
 // INDEX_KEYS (progressive rendering, progressive.rs) puts the point's id (its slot in the shuffled
-// buffer) in the low word instead of the colour, so the Prepare pass can list the winners.
+// buffer) in the low word instead of the colour, so the Prepare pass can list the winners; the
+// colour key goes to keep_color_key (color_keys_*.wgsl) for the tie rule.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -40,5 +41,6 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         }
         let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
         atomicMax(&framebuffer[hit.pixel], point_key(hit.depth_bits, low));
+        keep_color_key(hit.pixel, point_key(hit.depth_bits, color));
     }
 }

@@ -5,7 +5,7 @@
 // each round takes the smallest pending pixel id, its closest lane writes, its lanes retire;
 // after DEDUP_ROUNDS rounds the remaining lanes write directly (bounded cost on close-ups).
 // EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements),
-// with the point id instead of the colour under INDEX_KEYS.
+// with the point id instead of the colour under INDEX_KEYS (color_keys_*.wgsl).
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -18,6 +18,12 @@ override DEDUP_ROUNDS: u32 = 4u;
 
 fn point_key(depth_bits: u32, color: u32) -> u64 {
     return (u64(~depth_bits) << 32u) | u64(~color);
+}
+
+// Equal depths all write: the tie rule (smaller colour, or smaller slot) is the atomic's.
+fn write_key(pixel: u32, inv_depth: u32, low: u32, color: u32) {
+    atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~low));
+    keep_color_key(pixel, (u64(inv_depth) << 32u) | u64(~color));
 }
 
 @compute @workgroup_size(WG)
@@ -34,6 +40,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         var pixel = NO_PIXEL;
         var inv_depth = 0u;
         var color = 0u;
+        var low = 0u;
         if i < w.end {
             let hit = project(load_position(w.info, w.base + i));
             // Early depth test on depth alone; surviving lanes fetch their colour.
@@ -44,7 +51,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
                 if !class_hidden(color) {
                     pixel = hit.pixel;
                     inv_depth = ~hit.depth_bits;
-                    color = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+                    low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
                 }
             }
         }
@@ -61,7 +68,7 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
                 }
             }
             if pixel != NO_PIXEL && inv_depth == best {
-                atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+                write_key(pixel, inv_depth, low, color);
             }
         } else {
             var pending = pixel != NO_PIXEL;
@@ -75,12 +82,12 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
                 if mine {
                     pending = false;
                     if inv_depth == best {
-                        atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+                        write_key(pixel, inv_depth, low, color);
                     }
                 }
             }
             if pending {
-                atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~color));
+                write_key(pixel, inv_depth, low, color);
             }
         }
     }

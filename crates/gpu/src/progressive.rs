@@ -312,6 +312,11 @@ pub struct ProgressiveState {
     height: u32,
     /// `~depth << 32 | ~slot` per pixel, 0 = empty.
     indexed: wgpu::Buffer,
+    /// `~depth << 32 | ~rgba` of the points drawn since the view last changed: the colour
+    /// shown where points share the closest depth (color_keys_kept.wgsl).
+    color_keys: wgpu::Buffer,
+    /// Whether `color_keys` belong to the current view (else the next frame clears them).
+    color_keys_kept: bool,
     list: wgpu::Buffer,
     /// The list's length in its first u32.
     list_len: wgpu::Buffer,
@@ -345,6 +350,8 @@ impl ProgressiveState {
             width,
             height,
             indexed: buffer("index keys", pixels * 8, storage)?,
+            color_keys: buffer("colour keys", pixels * 8, storage)?,
+            color_keys_kept: false,
             list: buffer("reproject list", pixels * 4, storage)?,
             list_len: buffer("reproject list length", 16, storage)?,
             size,
@@ -362,6 +369,13 @@ impl ProgressiveState {
     pub fn restart(&mut self) {
         self.has_list = false;
         self.next_fill = 0;
+        self.color_keys_kept = false;
+    }
+
+    /// The camera, the hidden classes or the buffer's contents changed since the last frame:
+    /// the colour keys kept for exact ties start over (the next frames rebuild them).
+    pub fn changed(&mut self) {
+        self.color_keys_kept = false;
     }
 
     /// The slot the next Fill pass starts at.
@@ -495,7 +509,7 @@ impl ReprojectPass {
             "reproject",
             shaders::PROGRESSIVE_REPROJECT,
             "reproject",
-            3,
+            4,
             &[("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)],
         );
         Self { pipeline, group1 }
@@ -513,7 +527,12 @@ impl ReprojectPass {
             device,
             "reproject",
             &self.group1,
-            &[&state.indexed, &state.list, &state.list_len],
+            &[
+                &state.indexed,
+                &state.list,
+                &state.list_len,
+                &state.color_keys,
+            ],
         );
         // One thread per possible entry: the list holds at most one slot per pixel.
         let pixels = state.width as u64 * state.height as u64;
@@ -531,7 +550,8 @@ impl ReprojectPass {
     }
 }
 
-/// Pass 2: the next S slots, drawn by a closest-point variant keyed by slot.
+/// Pass 2: the next S slots, drawn by a closest-point variant keyed by slot (keeping colour
+/// keys beside).
 struct FillPass {
     pipelines: RasterPipelines,
 }
@@ -560,7 +580,7 @@ impl FillPass {
             &mut pass,
             &cloud.storage,
             RasterDispatch::Indirect(&cloud.fill_args),
-            &[&state.indexed],
+            &[&state.indexed, &state.color_keys],
         );
     }
 }
@@ -578,7 +598,7 @@ impl LookupPass {
             "colour lookup",
             shaders::PROGRESSIVE_LOOKUP,
             "lookup",
-            2,
+            3,
             &[("PAGE_SIZE", page_size as f64)],
         );
         Self { pipeline, group1 }
@@ -598,7 +618,7 @@ impl LookupPass {
             device,
             "colour lookup",
             &self.group1,
-            &[&state.indexed, keys],
+            &[&state.indexed, keys, &state.color_keys],
         );
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("colour lookup"),
@@ -819,6 +839,10 @@ impl ProgressiveRenderer {
                 })
             };
             enc.clear_buffer(&state.indexed, 0, None);
+            // Kept over frames while the view stays still; else this frame's own.
+            if !(reproject && state.color_keys_kept) {
+                enc.clear_buffer(&state.color_keys, 0, None);
+            }
             if reproject {
                 self.reproject
                     .record(device, &mut enc, cloud, state, stamps(0));
@@ -848,6 +872,7 @@ impl ProgressiveRenderer {
             self.in_flight.pop_front();
         }
         state.has_list = true;
+        state.color_keys_kept = true;
         state.next_fill =
             ((state.next_fill as u64 + budget as u64) % cloud.points.max(1) as u64) as u32;
         Ok(())

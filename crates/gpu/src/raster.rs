@@ -220,7 +220,8 @@ impl RasterPipelines {
     }
 
     /// A closest-point variant keyed by point id instead of colour (progressive rendering's
-    /// Fill pass: its Prepare pass lists the winning points).
+    /// Fill pass: its Prepare pass lists the winning points), which also keeps the colour key
+    /// of each point in a second pixel buffer (color_keys_kept.wgsl).
     pub fn indexed(
         device: &wgpu::Device,
         variant: RasterVariant,
@@ -239,6 +240,14 @@ impl RasterPipelines {
     ) -> Self {
         // The shuffled buffer of progressive rendering (always Full16) has empty slots.
         let skip_empty = index_keys && encoding == PointEncoding::Full16;
+        // Closest-point stages: what they do with colour keys, and the pixel buffers they
+        // write (the framebuffer, and for index keys the colour keys beside it).
+        let (keys, keyed_buffers) = if index_keys {
+            (shaders::COLOR_KEYS_KEPT, vec![0, 1])
+        } else {
+            (shaders::COLOR_KEYS_OFF, vec![0])
+        };
+        let keyed = |body: &str| format!("{keys}\n{body}");
         let index_keys = ("INDEX_KEYS", index_keys as u32 as f64);
         let group0 = point_group_layout(device, encoding);
         let stage =
@@ -286,27 +295,27 @@ impl RasterPipelines {
             RasterVariant::HwPoints => vec![],
             RasterVariant::AtomicMin | RasterVariant::EarlyZ => vec![stage(
                 variant.name(),
-                shaders::RASTER_MIN64,
+                &keyed(shaders::RASTER_MIN64),
                 "raster",
                 &[
                     ("EARLY_Z", (variant == RasterVariant::EarlyZ) as u32 as f64),
                     index_keys,
                 ],
-                vec![0],
+                keyed_buffers,
             )],
             RasterVariant::Reduce | RasterVariant::ReduceEarlyZ | RasterVariant::Dedup => {
                 let early = variant != RasterVariant::Reduce;
                 let mode = (variant == RasterVariant::Dedup) as u32;
                 vec![stage(
                     variant.name(),
-                    shaders::RASTER_SUBGROUP,
+                    &keyed(shaders::RASTER_SUBGROUP),
                     "raster",
                     &[
                         ("EARLY_Z", early as u32 as f64),
                         ("MODE", mode as f64),
                         index_keys,
                     ],
-                    vec![0],
+                    keyed_buffers,
                 )]
             }
             RasterVariant::AtomicMin32 => vec![

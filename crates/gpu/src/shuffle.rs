@@ -24,6 +24,148 @@ pub struct EncodedBatch<'a> {
     pub colors: &'a [u32],
 }
 
+/// A batch encoded straight into mapped upload memory by the threads that decode it: the
+/// render thread then records only its copy to the GPU and its scatter, without a copy of its
+/// own on the CPU (a whole batch through `Queue::write_buffer` runs at one core's memcpy).
+/// Regions: position words, fine words (Compact8), colours, each for `capacity` points.
+pub struct StagedBatch {
+    buffer: wgpu::Buffer,
+    encoding: PointEncoding,
+    capacity: u64,
+    /// Points written (set by [`finish`](Self::finish)).
+    count: u64,
+}
+
+/// The regions of a mapped [`StagedBatch`], to be split between the threads that fill them.
+pub struct StagedRegions<'a> {
+    pub positions: StagedRegion<'a>,
+    pub fine: StagedRegion<'a>,
+    pub colors: StagedRegion<'a>,
+}
+
+/// Bytes of a mapped [`StagedBatch`] that one thread writes.
+pub struct StagedRegion<'a>(wgpu::WriteOnly<'a, [u8]>);
+
+// SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is;
+// wgpu implements Send only for sized targets.
+unsafe impl Send for StagedRegion<'_> {}
+
+impl<'a> StagedRegion<'a> {
+    /// Bytes `..mid` and `mid..`.
+    pub fn split_at(self, mid: usize) -> (Self, Self) {
+        let (a, b) = self.0.split_at(mid);
+        (Self(a), Self(b))
+    }
+
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// Writes the whole region (`words` holds exactly its bytes).
+    pub fn write(&mut self, words: &[u32]) -> Result<(), GpuError> {
+        if words.len() * 4 != self.0.len() {
+            return Err(GpuError::InvalidInput(format!(
+                "{} bytes written into a staged region of {}",
+                words.len() * 4,
+                self.0.len()
+            )));
+        }
+        self.0.copy_from_slice(bytemuck::cast_slice(words));
+        Ok(())
+    }
+}
+
+impl StagedBatch {
+    /// Mapped upload memory for `capacity` points (from any thread).
+    pub fn new(
+        device: &wgpu::Device,
+        encoding: PointEncoding,
+        capacity: u64,
+    ) -> Result<Self, GpuError> {
+        let bytes = capacity * Self::point_bytes(encoding);
+        let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("staged batch"),
+            size: bytes.max(4),
+            usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: true,
+        });
+        let v = pollster::block_on(validation.pop());
+        if let Some(e) = pollster::block_on(oom.pop()) {
+            return Err(GpuError::OutOfMemory(format!(
+                "allocating a staged batch: {e}"
+            )));
+        }
+        if let Some(e) = v {
+            return Err(GpuError::Validation(format!(
+                "allocating a staged batch: {e}"
+            )));
+        }
+        Ok(Self {
+            buffer,
+            encoding,
+            capacity,
+            count: 0,
+        })
+    }
+
+    fn point_bytes(encoding: PointEncoding) -> u64 {
+        let fine = if encoding == PointEncoding::Compact8 {
+            4
+        } else {
+            0
+        };
+        encoding.position_bytes() + fine + 4
+    }
+
+    pub fn capacity(&self) -> u64 {
+        self.capacity
+    }
+
+    /// A write view of the whole mapping; [`regions`](Self::regions) splits it. Drop it
+    /// before [`finish`](Self::finish).
+    pub fn map(&self) -> Result<wgpu::BufferViewMut, GpuError> {
+        self.buffer
+            .get_mapped_range_mut(..)
+            .map_err(|e| GpuError::InvalidInput(format!("writing a staged batch: {e}")))
+    }
+
+    /// The position, fine and colour regions of `view` (this batch's [`map`](Self::map)).
+    pub fn regions<'a>(&self, view: &'a mut wgpu::BufferViewMut) -> StagedRegions<'a> {
+        let n = self.capacity as usize;
+        let positions = n * self.encoding.position_bytes() as usize;
+        let fine = if self.encoding == PointEncoding::Compact8 {
+            n * 4
+        } else {
+            0
+        };
+        let (positions_region, rest) = view.slice(..).split_at(positions);
+        let (fine_region, colors) = rest.split_at(fine);
+        StagedRegions {
+            positions: StagedRegion(positions_region),
+            fine: StagedRegion(fine_region),
+            colors: StagedRegion(colors),
+        }
+    }
+
+    /// Ends writing: the first `count` points of each region hold the batch. Every view of
+    /// the mapping must be dropped by now.
+    pub fn finish(&mut self, count: u64) {
+        self.count = count.min(self.capacity);
+        self.buffer.unmap();
+    }
+
+    /// Points the batch holds.
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+}
+
 /// The streams of a shuffled buffer read back to the CPU, in slot order.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ShuffledContents {
@@ -287,7 +429,26 @@ impl ShufflePass {
                 batch.fine.len()
             )));
         }
-        self.dispatch(ctx, dst, targets, Some(batch), batch.colors)
+        self.dispatch(ctx, dst, targets, Input::Slices(Some(batch), batch.colors))
+    }
+
+    /// Scatters a [`StagedBatch`] (finished) to the slots of the points of global indices
+    /// `first..first + staged.count()`.
+    pub fn scatter_staged(
+        &mut self,
+        ctx: &GpuContext,
+        dst: &ShuffledBuffer,
+        first: u32,
+        staged: &StagedBatch,
+    ) -> Result<(), GpuError> {
+        if staged.encoding != dst.encoding {
+            return Err(GpuError::InvalidInput(format!(
+                "a {} staged batch for a {} shuffled buffer",
+                staged.encoding.name(),
+                dst.encoding.name()
+            )));
+        }
+        self.dispatch(ctx, dst, Targets::Permuted { first }, Input::Staged(staged))
     }
 
     /// Rewrites only the colours of the points `targets` names (attribute switching: the
@@ -299,7 +460,7 @@ impl ShufflePass {
         targets: Targets<'_>,
         colors: &[u32],
     ) -> Result<(), GpuError> {
-        self.dispatch(ctx, dst, targets, None, colors)
+        self.dispatch(ctx, dst, targets, Input::Slices(None, colors))
     }
 
     fn dispatch(
@@ -307,10 +468,12 @@ impl ShufflePass {
         ctx: &GpuContext,
         dst: &ShuffledBuffer,
         targets: Targets<'_>,
-        batch: Option<EncodedBatch<'_>>,
-        colors: &[u32],
+        input: Input<'_>,
     ) -> Result<(), GpuError> {
-        let count = colors.len() as u64;
+        let (count, colors_only) = match input {
+            Input::Slices(batch, colors) => (colors.len() as u64, batch.is_none()),
+            Input::Staged(b) => (b.count, false),
+        };
         let words = dst.encoding.position_bytes() / 4;
         let compact = dst.encoding == PointEncoding::Compact8;
         let n = dst.permutation.len();
@@ -343,18 +506,34 @@ impl ShufflePass {
         }
         let staging = staging_for(&mut self.staging, ctx, count, words)?;
         let q = &ctx.queue;
-        if let Some(b) = &batch {
-            q.write_buffer(&staging.positions, 0, bytemuck::cast_slice(b.positions));
-            q.write_buffer(&staging.fine, 0, bytemuck::cast_slice(b.fine));
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        match input {
+            Input::Slices(batch, colors) => {
+                if let Some(b) = &batch {
+                    q.write_buffer(&staging.positions, 0, bytemuck::cast_slice(b.positions));
+                    q.write_buffer(&staging.fine, 0, bytemuck::cast_slice(b.fine));
+                }
+                q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(colors));
+            }
+            Input::Staged(b) => {
+                // The regions' offsets follow from the capacity, the sizes from the count.
+                let (position_bytes, fine_bytes) = (words * 4, compact as u64 * 4);
+                let fine_at = b.capacity * position_bytes;
+                let colors_at = fine_at + b.capacity * fine_bytes;
+                let src = &b.buffer;
+                enc.copy_buffer_to_buffer(src, 0, &staging.positions, 0, count * position_bytes);
+                if compact {
+                    enc.copy_buffer_to_buffer(src, fine_at, &staging.fine, 0, count * fine_bytes);
+                }
+                enc.copy_buffer_to_buffer(src, colors_at, &staging.colors, 0, count * 4);
+            }
         }
-        q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(colors));
         if let Some(s) = slots {
             q.write_buffer(&staging.slots, 0, bytemuck::cast_slice(s));
         }
         let layout = self.pipeline.get_bind_group_layout(0);
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         ctx.checked("recording the shuffle pass", || {
             // One uniform and bind group per destination chunk: each dispatch sees its own.
             let groups: Vec<wgpu::BindGroup> = dst
@@ -371,7 +550,7 @@ impl ShufflePass {
                         words: words as u32,
                         has_fine: compact as u32,
                         explicit: slots.is_some() as u32,
-                        colors_only: batch.is_none() as u32,
+                        colors_only: colors_only as u32,
                         _pad: [0; 2],
                     };
                     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -410,6 +589,14 @@ impl ShufflePass {
         q.submit([enc.finish()]);
         Ok(())
     }
+}
+
+/// What a dispatch scatters: slices written through the queue (no positions for a
+/// colours-only batch), or a staged batch copied on the GPU.
+#[derive(Clone, Copy)]
+enum Input<'a> {
+    Slices(Option<EncodedBatch<'a>>, &'a [u32]),
+    Staged(&'a StagedBatch),
 }
 
 /// The staging of `slot`, grown to hold `count` points of `words` position words.

@@ -1,12 +1,15 @@
 //! The GPU shuffle pass against the CPU permutation: batches scattered into a shuffled
 //! buffer land exactly where `ShufflePermutation::target` puts them, and the shader's 32-bit
-//! modular arithmetic is exact up to primes just below 2^32.
+//! modular arithmetic is exact up to primes just below 2^32. Batches go through the queue or
+//! through mapped upload memory (`StagedBatch`), alternately.
 
 mod common;
 
 use pointlet_core::progressive::{prime_3_mod_4_at_most, ShufflePermutation};
 use pointlet_core::shuffle::SplitMix64;
-use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents};
+use pointlet_gpu::shuffle::{
+    EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents, StagedBatch,
+};
 use pointlet_gpu::{GpuContext, GpuError, PointEncoding};
 
 /// Distinct pseudo-random streams for `n` points, in load order.
@@ -70,9 +73,43 @@ fn scatter_in_batches(
             fine: &loaded.fine[first * fine_words..end * fine_words],
             colors: &loaded.colors[first..end],
         };
-        pass.scatter(ctx, dst, first as u32, batch).unwrap();
+        if k % 2 == 1 {
+            scatter_staged(ctx, pass, dst, first as u32, batch);
+        } else {
+            pass.scatter(ctx, dst, first as u32, batch).unwrap();
+        }
         first = end;
     }
+}
+
+/// `batch` written into a staged batch with room to spare (the regions' offsets follow from
+/// the capacity), each region in two halves as two threads would.
+fn scatter_staged(
+    ctx: &GpuContext,
+    pass: &mut ShufflePass,
+    dst: &ShuffledBuffer,
+    first: u32,
+    batch: EncodedBatch<'_>,
+) {
+    let count = batch.colors.len();
+    let mut staged = StagedBatch::new(&ctx.device, dst.encoding(), count as u64 + 3).unwrap();
+    let mut view = staged.map().unwrap();
+    let regions = staged.regions(&mut view);
+    let half = count / 2;
+    for (region, words) in [
+        (regions.positions, batch.positions),
+        (regions.fine, batch.fine),
+        (regions.colors, batch.colors),
+    ] {
+        let per_point = words.len() / count.max(1);
+        let (mut a, rest) = region.split_at(half * per_point * 4);
+        let (mut b, _spare) = rest.split_at((count - half) * per_point * 4);
+        a.write(&words[..half * per_point]).unwrap();
+        b.write(&words[half * per_point..]).unwrap();
+    }
+    drop(view);
+    staged.finish(count as u64);
+    pass.scatter_staged(ctx, dst, first, &staged).unwrap();
 }
 
 #[test]

@@ -262,25 +262,62 @@ impl Store {
     /// Every attribute of pointlet `i` in stored (shuffled) order, positions dequantized.
     /// Each stream's bytes are checked against their CRC32.
     pub fn read_pointlet(&self, i: usize) -> Result<PointBatch, StoreError> {
-        let e = *self.entry(i)?;
-        let n = e.count as usize;
+        self.read_pointlets(i..i + 1)
+    }
+
+    /// Every attribute of pointlets `range` (consecutive in every stream), one positioned
+    /// read per stream; each pointlet's bytes are checked against its CRC32.
+    pub fn read_pointlets(&self, range: Range<usize>) -> Result<PointBatch, StoreError> {
+        self.read_pointlet_streams(range, &StreamKind::ALL)
+    }
+
+    /// Like [`read_pointlets`](Self::read_pointlets), reading only the streams `kinds` names
+    /// (positions always); the other columns of the batch stay empty.
+    pub fn read_pointlet_streams(
+        &self,
+        range: Range<usize>,
+        kinds: &[StreamKind],
+    ) -> Result<PointBatch, StoreError> {
+        if range.is_empty() {
+            return Err(StoreError::request(
+                &self.path,
+                format!("no pointlets in {range:?}"),
+            ));
+        }
+        let (first, last) = (*self.entry(range.start)?, *self.entry(range.end - 1)?);
+        let n = (last.first + last.count as u64 - first.first) as usize;
         let layout = self.header.layout;
         let mut b = PointBatch::with_capacity(layout, n);
         let mut raw = Vec::new();
         let streams = self.header.streams.len();
         for (s, info) in self.header.streams.iter().enumerate() {
-            raw.clear();
-            self.read_stream_raw(info.kind, i, 0..e.count, &mut raw)?;
-            let stored = self.checksums[i * streams + s];
-            let actual = crc32fast::hash(&raw);
-            if stored != actual {
-                return Err(StoreError::damaged(
-                    &self.path,
-                    format!(
-                        "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
-                        info.kind.name()
-                    ),
-                ));
+            if info.kind != StreamKind::Position && !kinds.contains(&info.kind) {
+                continue;
+            }
+            let bpp = info.bytes_per_point as usize;
+            raw.resize(n * bpp, 0);
+            read_at(
+                &self.file,
+                &self.path,
+                &mut raw,
+                info.offset + first.first * bpp as u64,
+                "reading a stream",
+            )?;
+            let mut at = 0;
+            for i in range.clone() {
+                let bytes = self.pointlets[i].count as usize * bpp;
+                let stored = self.checksums[i * streams + s];
+                let actual = crc32fast::hash(&raw[at..at + bytes]);
+                if stored != actual {
+                    return Err(StoreError::damaged(
+                        &self.path,
+                        format!(
+                            "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
+                            info.kind.name()
+                        ),
+                    ));
+                }
+                at += bytes;
             }
             let q = self.header.quantization;
             match info.kind {

@@ -30,6 +30,7 @@ const DOUBLE_CLICK_S: f64 = 0.4;
 const PIXELS_PER_STEP: f64 = 50.0;
 
 pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
+    let begun = Instant::now();
     let (w, h) = config.size;
     if w == 0 || h == 0 {
         return Err(ViewerError::Config(format!(
@@ -71,11 +72,7 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
         )?),
         Input::Store(_) => None,
     };
-    let event_loop = EventLoop::new().map_err(|e| {
-        ViewerError::Window(format!(
-            "cannot connect to a display ({e}); the viewer needs X11 or Wayland (is DISPLAY or WAYLAND_DISPLAY set?)"
-        ))
-    })?;
+    let event_loop = open_event_loop()?;
     let mut app = App {
         config,
         memory,
@@ -83,6 +80,7 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
         state: None,
         error: None,
         started: Instant::now(),
+        begun,
     };
     event_loop
         .run_app(&mut app)
@@ -90,6 +88,35 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
+    }
+}
+
+/// The window system's event loop. winit panics where the X server or the keyboard data it
+/// needs is missing (`XKBNotFound` without /usr/share/X11/xkb): that is an error here too.
+fn open_event_loop() -> Result<EventLoop<()>, ViewerError> {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let opened = std::panic::catch_unwind(EventLoop::new);
+    std::panic::set_hook(hook);
+    let cannot = |why: String| {
+        ViewerError::Window(format!(
+            "cannot connect to a display ({why}); the viewer needs X11 or Wayland (is DISPLAY \
+             or WAYLAND_DISPLAY set?)"
+        ))
+    };
+    match opened {
+        Ok(Ok(event_loop)) => Ok(event_loop),
+        Ok(Err(e)) => Err(cannot(e.to_string())),
+        Err(panic) => {
+            let why = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "the window system failed to start".into());
+            Err(cannot(format!(
+                "{why}; X11 also needs the keyboard data of xkb-data (XKB_CONFIG_ROOT)"
+            )))
+        }
     }
 }
 
@@ -102,6 +129,8 @@ struct App {
     state: Option<Running>,
     error: Option<ViewerError>,
     started: Instant,
+    /// When `run` was called (before any file was read).
+    begun: Instant,
 }
 
 /// Mouse button held down, where and when it went down.
@@ -127,6 +156,9 @@ struct Running {
     frames: u32,
     /// Automation: when the N frames were done (the convergence wait starts).
     frames_done_at: Option<f64>,
+    begun: Instant,
+    /// Seconds from `run` until the first frame that showed points was presented.
+    first_points_s: Option<f64>,
 }
 
 impl App {
@@ -262,6 +294,8 @@ impl App {
             last_frame: None,
             frames: 0,
             frames_done_at: None,
+            begun: self.begun,
+            first_points_s: None,
         })
     }
 }
@@ -640,6 +674,9 @@ impl Running {
         let shown =
             self.presenter
                 .present(&self.view.ctx, self.view.target.output(), overlay, capture)?;
+        if drew && self.view.drawn.points > 0 && self.first_points_s.is_none() {
+            self.first_points_s = Some(self.begun.elapsed().as_secs_f64());
+        }
         if drew {
             self.view.stats.cpu_times(crate::stats::CpuTimes {
                 ui_ms,
@@ -679,8 +716,12 @@ impl Running {
             let (pw, ph) = self.presenter.size();
             crate::png_out::write_png(path, pw, ph, &pixels)?;
         }
+        let first = self
+            .first_points_s
+            .map(|t| format!("; the first points were on screen {t:.3} s after starting"))
+            .unwrap_or_default();
         eprintln!(
-            "viewed {} frames of {} ({} points drawn) with {} on {}",
+            "viewed {} frames of {} ({} points drawn) with {} on {}{first}",
             self.frames,
             self.view.content.name(),
             self.view.drawn.points,
