@@ -27,7 +27,7 @@ pub struct StorePoints {
 
 impl StorePoints {
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        let store = Store::open(path).map_err(|e| IoError::invalid(path, e.to_string()))?;
+        let store = Store::open(path).map_err(|e| IoError::Named(Box::new(e)))?;
         let h = store.header();
         let meta = SourceMeta {
             format: format!("pointlet store v{}", h.version),
@@ -74,7 +74,7 @@ impl StorePoints {
         *out = self
             .store
             .read_pointlet_streams(start..end, kinds)
-            .map_err(|e| IoError::invalid(&self.path, e.to_string()))?;
+            .map_err(|e| IoError::Named(Box::new(e)))?;
         Ok(())
     }
 }

@@ -37,6 +37,9 @@ pub enum IoError {
     /// The file holds no points: empty, or (text) not a point file at all.
     #[error("{}: {message}", path.display())]
     NoPoints { path: PathBuf, message: String },
+    /// An error of another layer that already names the file (a store read as a point file).
+    #[error(transparent)]
+    Named(Box<dyn std::error::Error + Send + Sync>),
 }
 
 impl IoError {
