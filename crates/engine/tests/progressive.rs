@@ -2,6 +2,9 @@
 //! permutation puts it, progress reaches the header's count, a file cut while loading keeps
 //! what was read before the cut and reports the error once, and the queue bound holds.
 
+mod common;
+use common::context;
+
 use pointlet_core::color::{point_color, ColorMode};
 use pointlet_core::progressive::ShufflePermutation;
 use pointlet_engine::progressive::{
@@ -9,7 +12,7 @@ use pointlet_engine::progressive::{
 };
 use pointlet_engine::EngineError;
 use pointlet_gpu::shuffle::{ShufflePass, ShuffledBuffer, ShuffledContents};
-use pointlet_gpu::{encode_point, AdapterRequest, GpuContext, PointEncoding};
+use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::writer::{LasWriter, LasWriterConfig};
 use pointlet_io::PointReader;
@@ -18,12 +21,6 @@ use std::time::{Duration, Instant};
 
 /// LAS parts of generated files hold this many points (32 768 records of 34 bytes fit 4 MiB).
 const LAS_PART: u64 = 32_768;
-
-fn context() -> GpuContext {
-    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
-        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
-    })
-}
 
 fn testdata(name: &str) -> PathBuf {
     let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata")).join(name);

@@ -9,6 +9,9 @@
 //! Positions lie on a 1/256 grid within 64 units and the cameras' eyes on integers, so every
 //! difference from an origin is exact in f32 and both paths compute identical clip positions.
 
+mod common;
+use common::context;
+
 use pointlet_core::color::{point_color, ColorMode};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_core::{Camera, PointBatch, PointLayout, Quantization};
@@ -16,8 +19,8 @@ use pointlet_engine::progressive::LoadConfig;
 use pointlet_engine::{FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene};
 use pointlet_gpu::progressive::ProgressiveTiming;
 use pointlet_gpu::{
-    AdapterRequest, GpuCloud, GpuContext, PointEncoding, PointSet, RasterVariant, RenderSettings,
-    RenderTarget, Renderer, ScreenSettings,
+    GpuCloud, GpuContext, PointEncoding, PointSet, RasterVariant, RenderSettings, RenderTarget,
+    Renderer, ScreenSettings,
 };
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::writer::{LasWriter, LasWriterConfig};
@@ -31,12 +34,6 @@ const W: u32 = 160;
 const H: u32 = 100;
 const N: usize = 40_000;
 const GRID: f64 = 256.0;
-
-fn context() -> GpuContext {
-    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
-        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
-    })
-}
 
 fn camera() -> Camera {
     Camera {

@@ -2,44 +2,20 @@
 //! one reprojected, so it shows more than the LoD image of its bucket; once the camera stops,
 //! the image still converges to exactly the full-detail image of a scene without reuse.
 
+mod common;
+use common::context;
+
 use pointlet_core::color::ColorMode;
 use pointlet_core::Camera;
 use pointlet_engine::{SceneConfig, VirtualScene};
-use pointlet_gpu::{
-    AdapterRequest, GpuContext, RasterVariant, RenderSettings, RenderTarget, Renderer,
-};
-use pointlet_io::generate::{SceneConfig as GenConfig, SceneGenerator};
-use pointlet_io::PointReader;
-use pointlet_store::{BuildConfig, StoreBuilder};
+use pointlet_gpu::{GpuContext, RasterVariant, RenderSettings, RenderTarget, Renderer};
 use std::path::Path;
 
 const W: u32 = 128;
 const H: u32 = 96;
 
-fn context() -> GpuContext {
-    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
-        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
-    })
-}
-
 fn build_store(path: &Path, points: u64) {
-    let generator = SceneGenerator::new(GenConfig { points, seed: 3 });
-    let meta = generator.meta();
-    let mut builder = StoreBuilder::create(
-        path,
-        BuildConfig {
-            target_pointlets: 200,
-            ..Default::default()
-        },
-        &meta,
-        vec!["test".into()],
-    )
-    .expect("builder");
-    let mut reader = generator.reader();
-    while let Some(b) = reader.read_batch(1 << 16).expect("generate") {
-        builder.push(&b).expect("push");
-    }
-    builder.finish().expect("finish");
+    common::build_store(path, points, 3, 200);
 }
 
 fn settings(ctx: &GpuContext) -> RenderSettings {

@@ -1,26 +1,20 @@
 //! The virtualized renderer under budgets far below the store: it streams, evicts, keeps to the
 //! budgets, and once the camera stops converges to exactly the full-detail image.
 
+mod common;
+use common::context;
+
 use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::Camera;
 use pointlet_engine::{target_bytes, SceneConfig, VirtualScene};
 use pointlet_gpu::{
-    AdapterRequest, GpuContext, PagedCloud, PointEncoding, PointletDesc, RasterVariant,
-    RenderSettings, RenderTarget, Renderer,
+    GpuContext, PagedCloud, PointEncoding, PointletDesc, RasterVariant, RenderSettings,
+    RenderTarget, Renderer,
 };
-use pointlet_io::generate::{SceneConfig as GenConfig, SceneGenerator};
-use pointlet_io::PointReader;
-use pointlet_store::{BuildConfig, StoreBuilder};
 use std::path::Path;
 
 const W: u32 = 96;
 const H: u32 = 64;
-
-fn context() -> GpuContext {
-    GpuContext::new(&AdapterRequest::default()).unwrap_or_else(|e| {
-        panic!("GPU tests need a Vulkan adapter (CI installs mesa-vulkan-drivers): {e}")
-    })
-}
 
 fn build_store(path: &Path, points: u64) {
     build_store_of(path, points, 300);
@@ -28,23 +22,7 @@ fn build_store(path: &Path, points: u64) {
 
 /// A store of about `pointlets` pointlets.
 fn build_store_of(path: &Path, points: u64, pointlets: u64) {
-    let generator = SceneGenerator::new(GenConfig { points, seed: 11 });
-    let meta = generator.meta();
-    let mut builder = StoreBuilder::create(
-        path,
-        BuildConfig {
-            target_pointlets: pointlets,
-            ..Default::default()
-        },
-        &meta,
-        vec!["test".into()],
-    )
-    .expect("builder");
-    let mut reader = generator.reader();
-    while let Some(b) = reader.read_batch(1 << 16).expect("generate") {
-        builder.push(&b).expect("push");
-    }
-    builder.finish().expect("finish");
+    common::build_store(path, points, 11, pointlets);
 }
 
 fn settings() -> RenderSettings {
