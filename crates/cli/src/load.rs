@@ -38,10 +38,7 @@ pub fn print_notes(reader: &dyn PointReader) {
 
 /// Stores are recognised by their extension; anything else goes to the point-file readers.
 pub fn is_store_path(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.eq_ignore_ascii_case("pointlet"))
-        .unwrap_or(false)
+    pointlet_engine::is_store(path)
 }
 
 /// Opens the store that `command` reads: a point file is told to be converted, not called damaged.

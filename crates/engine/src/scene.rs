@@ -572,21 +572,16 @@ impl VirtualScene {
         }
         report.handoff_ms = handoff.elapsed().as_secs_f64() * 1e3;
         let view = PagedView { bucket, accumulate };
-        match &mut self.reuse {
-            Some(reuse) => {
-                self.reused_last = !accumulate && reuse.has_frame();
-                renderer.render_paged_reusing(
-                    ctx,
-                    &mut self.paged,
-                    camera,
-                    settings,
-                    &view,
-                    target,
-                    reuse,
-                )?;
-            }
-            None => renderer.render_paged(ctx, &mut self.paged, camera, settings, &view, target)?,
-        }
+        self.reused_last = !accumulate && self.reuse.as_ref().is_some_and(|r| r.has_frame());
+        renderer.render_paged(
+            ctx,
+            &mut self.paged,
+            camera,
+            settings,
+            &view,
+            target,
+            self.reuse.as_mut(),
+        )?;
         (report.requested_points, report.drawn_points) = self.feedback_totals;
         report.pages_resident = self.pages_resident;
         report.gpu_points = self.gpu_points;

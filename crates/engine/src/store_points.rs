@@ -7,6 +7,7 @@ use pointlet_core::color::ColorMode;
 use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
 use pointlet_io::{IoError, PointReader, ReadOptions};
 use pointlet_store::{Store, StreamKind};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Points per part (whole pointlets): one positioned read per stream of this many points
@@ -18,11 +19,11 @@ pub struct StorePoints {
     store: Store,
     path: PathBuf,
     meta: SourceMeta,
-    /// Pointlets of each part: `parts[i]..parts[i + 1]`.
-    parts: Vec<usize>,
+    /// Pointlets per part (the last part may hold fewer).
+    per_part: usize,
     part_sizes: Vec<u64>,
-    /// Parts `read_batch` has returned.
-    next_part: usize,
+    /// The first pointlet `read_batch` has not returned.
+    next_pointlet: usize,
 }
 
 impl StorePoints {
@@ -41,27 +42,24 @@ impl StorePoints {
         };
         let part_points = PART_POINTS.min(h.points / MIN_PARTS);
         let per_part = part_points.div_ceil(h.pointlet_size.max(1)).max(1) as usize;
-        let entries = store.pointlets();
-        let mut parts = Vec::with_capacity(entries.len() / per_part + 2);
-        let mut part_sizes = Vec::with_capacity(entries.len() / per_part + 1);
-        for (k, group) in entries.chunks(per_part).enumerate() {
-            parts.push(k * per_part);
-            part_sizes.push(group.iter().map(|e| u64::from(e.count)).sum());
-        }
-        parts.push(entries.len());
+        let part_sizes = store
+            .pointlets()
+            .chunks(per_part)
+            .map(|group| group.iter().map(|e| u64::from(e.count)).sum())
+            .collect();
         Ok(Self {
             store,
             path: path.to_path_buf(),
             meta,
-            parts,
+            per_part,
             part_sizes,
-            next_part: 0,
+            next_pointlet: 0,
         })
     }
 
     /// Part `i`'s points with the streams `kinds` (positions always).
     fn decode(&self, i: usize, out: &mut PointBatch, kinds: &[StreamKind]) -> Result<(), IoError> {
-        let (Some(&start), Some(&end)) = (self.parts.get(i), self.parts.get(i + 1)) else {
+        if i >= self.part_sizes.len() {
             return Err(IoError::invalid(
                 &self.path,
                 format!(
@@ -69,13 +67,19 @@ impl StorePoints {
                     self.part_sizes.len()
                 ),
             ));
-        };
-        // Checksummed: a damaged pointlet is an error naming it, never wrong points.
-        *out = self
-            .store
-            .read_pointlet_streams(start..end, kinds)
-            .map_err(|e| IoError::Named(Box::new(e)))?;
+        }
+        let start = i * self.per_part;
+        let end = (start + self.per_part).min(self.store.pointlets().len());
+        *out = self.read(start..end, kinds)?;
         Ok(())
+    }
+
+    /// Pointlets `range`, checksummed: a damaged pointlet is an error naming it, never wrong
+    /// points.
+    fn read(&self, range: Range<usize>, kinds: &[StreamKind]) -> Result<PointBatch, IoError> {
+        self.store
+            .read_pointlet_streams(range, kinds)
+            .map_err(|e| IoError::Named(Box::new(e)))
     }
 }
 
@@ -88,14 +92,24 @@ impl PointReader for StorePoints {
         &self.meta
     }
 
-    fn read_batch(&mut self, _max: usize) -> Result<Option<PointBatch>, IoError> {
-        if self.next_part == self.part_sizes.len() {
+    /// Whole pointlets, as many as `max` points hold (at least one: a pointlet is not split).
+    fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError> {
+        let entries = self.store.pointlets();
+        let start = self.next_pointlet;
+        let Some(first) = entries.get(start) else {
             return Ok(None);
+        };
+        let (mut end, mut points) = (start + 1, u64::from(first.count));
+        while let Some(e) = entries.get(end) {
+            if points + u64::from(e.count) > max as u64 {
+                break;
+            }
+            points += u64::from(e.count);
+            end += 1;
         }
-        let mut out = PointBatch::new(self.meta.layout);
-        self.decode(self.next_part, &mut out, &StreamKind::ALL)?;
-        self.next_part += 1;
-        Ok(Some(out))
+        let batch = self.read(start..end, &StreamKind::ALL)?;
+        self.next_pointlet = end;
+        Ok(Some(batch))
     }
 
     fn parted(&self) -> Option<&dyn PartedSource> {

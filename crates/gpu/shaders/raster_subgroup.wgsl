@@ -16,10 +16,6 @@ override DEDUP_ROUNDS: u32 = 4u;
 
 @group(1) @binding(0) var<storage, read_write> framebuffer: array<atomic<u64>>;
 
-fn point_key(depth_bits: u32, color: u32) -> u64 {
-    return (u64(~depth_bits) << 32u) | u64(~color);
-}
-
 // Equal depths all write: the tie rule (smaller colour, or smaller slot) is the atomic's.
 fn write_key(pixel: u32, inv_depth: u32, low: u32, color: u32) {
     atomicMax(&framebuffer[pixel], (u64(inv_depth) << 32u) | u64(~low));

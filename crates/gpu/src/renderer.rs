@@ -180,38 +180,12 @@ impl Renderer {
     }
 
     /// Records and submits one frame of a paged (virtualized) cloud: the GPU LoD picks each
-    /// pointlet's points under `view.bucket` and draws what is resident of them.
+    /// pointlet's points under `view.bucket` and draws what is resident of them. With temporal
+    /// `reuse`, a frame that does not accumulate starts from its kept frame reprojected to
+    /// `camera`, and every frame is kept for the next (closest-point variants; the others draw
+    /// as without reuse).
+    #[allow(clippy::too_many_arguments)]
     pub fn render_paged(
-        &mut self,
-        ctx: &GpuContext,
-        paged: &mut PagedCloud,
-        camera: &Camera,
-        settings: &RenderSettings,
-        view: &PagedView,
-        target: &mut RenderTarget,
-    ) -> Result<(), GpuError> {
-        self.paged_frame(ctx, paged, camera, settings, view, target, None)
-    }
-
-    /// [`render_paged`](Self::render_paged) with temporal reuse: a frame that does not
-    /// accumulate starts from `reuse`'s kept frame reprojected to `camera`, and every frame is
-    /// kept for the next (closest-point variants; the others draw as without reuse).
-    #[allow(clippy::too_many_arguments)]
-    pub fn render_paged_reusing(
-        &mut self,
-        ctx: &GpuContext,
-        paged: &mut PagedCloud,
-        camera: &Camera,
-        settings: &RenderSettings,
-        view: &PagedView,
-        target: &mut RenderTarget,
-        reuse: &mut TemporalReuse,
-    ) -> Result<(), GpuError> {
-        self.paged_frame(ctx, paged, camera, settings, view, target, Some(reuse))
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn paged_frame(
         &mut self,
         ctx: &GpuContext,
         paged: &mut PagedCloud,

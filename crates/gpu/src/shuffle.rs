@@ -57,14 +57,6 @@ impl<'a> StagedRegion<'a> {
         (Self(a), Self(b))
     }
 
-    pub fn len(&self) -> usize {
-        self.0.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-
     /// Writes the whole region (`words` holds exactly its bytes).
     pub fn write(&mut self, words: &[u32]) -> Result<(), GpuError> {
         if words.len() * 4 != self.0.len() {
@@ -86,7 +78,7 @@ impl StagedBatch {
         encoding: PointEncoding,
         capacity: u64,
     ) -> Result<Self, GpuError> {
-        let bytes = capacity * Self::point_bytes(encoding);
+        let bytes = capacity * region_bytes(encoding).iter().sum::<u64>();
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -114,17 +106,14 @@ impl StagedBatch {
         })
     }
 
-    fn point_bytes(encoding: PointEncoding) -> u64 {
-        let fine = if encoding == PointEncoding::Compact8 {
-            4
-        } else {
-            0
-        };
-        encoding.position_bytes() + fine + 4
-    }
-
-    pub fn capacity(&self) -> u64 {
-        self.capacity
+    /// Where the position, fine and colour regions start in the buffer.
+    fn region_starts(&self) -> [u64; 3] {
+        let [positions, fine, _] = region_bytes(self.encoding);
+        [
+            0,
+            self.capacity * positions,
+            self.capacity * (positions + fine),
+        ]
     }
 
     /// A write view of the whole mapping; [`regions`](Self::regions) splits it. Drop it
@@ -137,15 +126,9 @@ impl StagedBatch {
 
     /// The position, fine and colour regions of `view` (this batch's [`map`](Self::map)).
     pub fn regions<'a>(&self, view: &'a mut wgpu::BufferViewMut) -> StagedRegions<'a> {
-        let n = self.capacity as usize;
-        let positions = n * self.encoding.position_bytes() as usize;
-        let fine = if self.encoding == PointEncoding::Compact8 {
-            n * 4
-        } else {
-            0
-        };
-        let (positions_region, rest) = view.slice(..).split_at(positions);
-        let (fine_region, colors) = rest.split_at(fine);
+        let [_, fine_at, colors_at] = self.region_starts().map(|b| b as usize);
+        let (positions_region, rest) = view.slice(..).split_at(fine_at);
+        let (fine_region, colors) = rest.split_at(colors_at - fine_at);
         StagedRegions {
             positions: StagedRegion(positions_region),
             fine: StagedRegion(fine_region),
@@ -159,11 +142,16 @@ impl StagedBatch {
         self.count = count.min(self.capacity);
         self.buffer.unmap();
     }
+}
 
-    /// Points the batch holds.
-    pub fn count(&self) -> u64 {
-        self.count
-    }
+/// Bytes per point of a staged batch's position, fine and colour regions.
+fn region_bytes(encoding: PointEncoding) -> [u64; 3] {
+    let fine = if encoding == PointEncoding::Compact8 {
+        4
+    } else {
+        0
+    };
+    [encoding.position_bytes(), fine, 4]
 }
 
 /// The streams of a shuffled buffer read back to the CPU, in slot order.
@@ -518,16 +506,15 @@ impl ShufflePass {
                 q.write_buffer(&staging.colors, 0, bytemuck::cast_slice(colors));
             }
             Input::Staged(b) => {
-                // The regions' offsets follow from the capacity, the sizes from the count.
-                let (position_bytes, fine_bytes) = (words * 4, compact as u64 * 4);
-                let fine_at = b.capacity * position_bytes;
-                let colors_at = fine_at + b.capacity * fine_bytes;
-                let src = &b.buffer;
-                enc.copy_buffer_to_buffer(src, 0, &staging.positions, 0, count * position_bytes);
-                if compact {
-                    enc.copy_buffer_to_buffer(src, fine_at, &staging.fine, 0, count * fine_bytes);
+                // The regions start where the capacity puts them; the count says how much.
+                let starts = b.region_starts();
+                let sizes = region_bytes(b.encoding).map(|bytes| count * bytes);
+                let dsts = [&staging.positions, &staging.fine, &staging.colors];
+                for ((at, size), dst) in starts.into_iter().zip(sizes).zip(dsts) {
+                    if size > 0 {
+                        enc.copy_buffer_to_buffer(&b.buffer, at, dst, 0, size);
+                    }
                 }
-                enc.copy_buffer_to_buffer(src, colors_at, &staging.colors, 0, count * 4);
             }
         }
         if let Some(s) = slots {

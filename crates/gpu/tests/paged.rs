@@ -84,6 +84,7 @@ fn frame(
             },
             &view,
             target,
+            None,
         )
         .expect("frame");
     target.read_rgba(ctx).expect("readback")
