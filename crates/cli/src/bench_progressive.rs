@@ -85,8 +85,7 @@ pub fn run(args: &Args) -> Result<()> {
     let bounds = scene.bounds();
     let flight = Flight::new(args, bounds)?;
     let (path, cameras) = (&flight.path, &flight.cameras);
-    let screen = args.draw.screen();
-    let hidden = [0u32; 8];
+    let settings = args.draw.settings(variant);
     let slots = scene.slots().max(1);
     let mut rows: Vec<Row> = Vec::with_capacity(cameras.len());
     let mut first_frame_s = None;
@@ -115,7 +114,7 @@ pub fn run(args: &Args) -> Result<()> {
             prev.frame_ms = (start - last_start).as_secs_f64() * 1e3;
         }
         last_start = start;
-        let report = scene.frame(&ctx, &camera, &screen, &hidden, &mut target)?;
+        let report = scene.frame(&ctx, &camera, &settings, &mut target)?;
         if report.failure.is_some() {
             failure = report.failure.clone();
         }
@@ -159,7 +158,7 @@ pub fn run(args: &Args) -> Result<()> {
     let mut converge_frames = 0u64;
     loop {
         scene.limit_frames_in_flight(&ctx, args.in_flight)?;
-        let report = scene.frame(&ctx, &still, &screen, &hidden, &mut target)?;
+        let report = scene.frame(&ctx, &still, &settings, &mut target)?;
         converge_frames += 1;
         if let Some(f) = report.failure {
             bail!("{f}");

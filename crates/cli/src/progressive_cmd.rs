@@ -115,12 +115,11 @@ pub fn render(args: &crate::render_cmd::Args, path: &Path) -> Result<()> {
     let started = Instant::now();
     let mut scene = open(&ctx, path, config)?;
     let camera = args.camera.camera(&scene.bounds())?;
-    let screen = args.draw.screen();
-    let hidden = [0u32; 8];
+    let settings = args.draw.settings(variant);
     let mut noted = false;
     let mut last = None;
     for _ in 0..args.max_frames {
-        let report = scene.frame(&ctx, &camera, &screen, &hidden, &mut target)?;
+        let report = scene.frame(&ctx, &camera, &settings, &mut target)?;
         if let Some(failure) = &report.failure {
             bail!("{failure}");
         }

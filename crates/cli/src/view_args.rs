@@ -5,7 +5,8 @@ use pointlet_core::color::ColorMode;
 use pointlet_core::order::VertexOrder;
 use pointlet_core::{Aabb, Camera};
 use pointlet_gpu::{
-    EdlSettings, OcclusionSettings, PointEncoding, RasterVariant, RenderSettings, ScreenSettings,
+    EdlSettings, OcclusionSettings, PointEncoding, PointSize, RasterVariant, RenderSettings,
+    ScreenSettings, SplatSettings, SplatShape,
 };
 
 #[derive(clap::Args, Clone, Debug)]
@@ -104,6 +105,13 @@ pub struct DrawArgs {
     /// closest-point --raster).
     #[arg(long)]
     pub progressive: bool,
+    /// Point size: pixels (1–32), or `adaptive` (the spacing of the points drawn, seen at their
+    /// depth: a store's pointlets drawn at a fraction of their points get larger splats).
+    #[arg(long, value_parser = PointSize::parse)]
+    pub point_size: Option<PointSize>,
+    /// Shape of points larger than a pixel: square or circle.
+    #[arg(long, default_value = "square", value_parser = parse_shape)]
+    pub splat_shape: SplatShape,
 }
 
 impl DrawArgs {
@@ -112,7 +120,16 @@ impl DrawArgs {
         RenderSettings {
             variant,
             screen: self.screen(),
+            splats: self.splats(),
             ..Default::default()
+        }
+    }
+
+    /// Point size and shape: `--point-size` (default one pixel) and `--splat-shape`.
+    pub fn splats(&self) -> SplatSettings {
+        SplatSettings {
+            size: self.point_size.unwrap_or(PointSize::Fixed(1)),
+            shape: self.splat_shape,
         }
     }
 
@@ -208,6 +225,15 @@ pub fn parse_variant(s: &str) -> Result<RasterVariant, String> {
         format!(
             "unknown rasterizer (one of: {})",
             names(&RasterVariant::ALL, RasterVariant::name)
+        )
+    })
+}
+
+pub fn parse_shape(s: &str) -> Result<SplatShape, String> {
+    SplatShape::parse(s).ok_or_else(|| {
+        format!(
+            "unknown splat shape (one of: {})",
+            names(&SplatShape::ALL, SplatShape::name)
         )
     })
 }

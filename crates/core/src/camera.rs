@@ -125,6 +125,11 @@ impl Camera {
         ]
     }
 
+    /// Pixels per unit of (lateral size / view depth) in an image `height` pixels tall.
+    pub fn focal_px(&self, height: u32) -> f64 {
+        0.5 * height as f64 / (self.fov_y_deg.to_radians() * 0.5).tan()
+    }
+
     /// Right-handed perspective projection, depth 0 at near and 1 at far; clip w = view depth.
     pub fn projection(&self, aspect: f64) -> Mat4 {
         let f = 1.0 / (self.fov_y_deg.to_radians() * 0.5).tan();

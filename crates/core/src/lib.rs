@@ -7,6 +7,7 @@ pub mod cleanup;
 pub mod codes;
 pub mod color;
 pub mod crs;
+pub mod density;
 pub mod extra;
 pub mod lod;
 pub mod order;

@@ -16,6 +16,7 @@ use crate::EngineError;
 use pointlet_core::color::{
     default_color, point_color, sample_indices, ColorMode, ColorScale, DefaultColor,
 };
+use pointlet_core::density::SurfaceDensity;
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::progressive::Reservoir;
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
@@ -190,6 +191,8 @@ enum Stop {
 struct Shared {
     loaded: AtomicU64,
     color: OnceLock<LoadColor>,
+    /// The file's surface spacing at full density, measured on the colour sample.
+    spacing: OnceLock<f64>,
     /// The GPU, once the render thread has one: batches then go to mapped upload memory.
     device: OnceLock<wgpu::Device>,
 }
@@ -366,6 +369,12 @@ impl ProgressiveLoad {
         self.origin
     }
 
+    /// The file's surface spacing at full density (1/√density), once the load thread has
+    /// measured it on its sample.
+    pub fn spacing(&self) -> Option<f64> {
+        self.shared.spacing.get().copied()
+    }
+
     /// The colouring, once the load thread has chosen it from its sample.
     pub fn color(&self) -> Option<LoadColor> {
         self.shared.color.get().copied()
@@ -533,6 +542,7 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
                 }
             })
             .collect();
+        measure_spacing(job, &sample);
         choose_color(job, &sample.iter().collect::<Vec<_>>())
     });
     // A batch is decoded in parallel and waits for its slowest part: it takes at least one
@@ -745,10 +755,10 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
         if batch.is_empty() {
             continue;
         }
-        let color = *job
-            .shared
-            .color
-            .get_or_init(|| choose_color(job, &[&batch]));
+        let color = *job.shared.color.get_or_init(|| {
+            measure_spacing(job, std::slice::from_ref(&batch));
+            choose_color(job, &[&batch])
+        });
         let n = batch.len();
         check_fits(job, first, n as u64)?;
         let words = if job.colors_only { 0 } else { WORDS };
@@ -769,6 +779,25 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
         );
         send(job, out)?;
         first += n as u64;
+    }
+}
+
+/// The surface spacing of the file where `sample` (whole parts at full density) lies.
+fn measure_spacing(job: &Job, sample: &[PointBatch]) {
+    let mut bounds = pointlet_core::Aabb::EMPTY;
+    for b in sample {
+        for p in &b.xyz {
+            bounds.grow(*p);
+        }
+    }
+    let mut density = SurfaceDensity::new(&bounds);
+    for b in sample {
+        let stride = (b.len() / 65_536).max(1);
+        density.add(b.xyz.iter().step_by(stride).copied());
+    }
+    let points: usize = sample.iter().map(|b| b.len()).sum();
+    if let Some(s) = density.spacing(points as u64) {
+        let _ = job.shared.spacing.set(s);
     }
 }
 

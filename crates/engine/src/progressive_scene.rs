@@ -13,7 +13,7 @@ use pointlet_gpu::progressive::{
     ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState, ProgressiveTiming,
 };
 use pointlet_gpu::shuffle::{ShufflePass, ShuffledContents};
-use pointlet_gpu::{GpuContext, RasterVariant, RenderTarget, ScreenSettings};
+use pointlet_gpu::{GpuContext, RasterVariant, RenderSettings, RenderTarget, SplatSettings};
 use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -150,7 +150,7 @@ pub struct ProgressiveScene {
     bounds: Aabb,
     /// Camera and hidden classes of the last frame, and slots filled since they (or the
     /// buffer's contents) last changed.
-    last_view: Option<(Camera, [u32; 8])>,
+    last_view: Option<(Camera, [u32; 8], SplatSettings)>,
     filled_since_change: u64,
     /// Fill budgets of frames whose timings have not arrived yet.
     pending: VecDeque<(u64, u64)>,
@@ -363,15 +363,20 @@ impl ProgressiveScene {
     }
 
     /// Draws one frame: scatters what the load thread has ready, then reproject → fill →
-    /// screen passes → prepare. Never waits for the load thread or for the GPU.
+    /// screen passes → prepare. Never waits for the load thread or for the GPU. Another
+    /// `settings.variant` than the scene's rebuilds the passes first (see `set_variant`).
     pub fn frame(
         &mut self,
         ctx: &GpuContext,
         camera: &Camera,
-        screen: &ScreenSettings,
-        hidden_classes: &[u32; 8],
+        settings: &RenderSettings,
         target: &mut RenderTarget,
     ) -> Result<ProgressiveReport, EngineError> {
+        if settings.variant != self.config.variant {
+            self.set_variant(ctx, settings.variant)?;
+        }
+        let (screen, hidden_classes, splats) =
+            (&settings.screen, &settings.hidden_classes, &settings.splats);
         self.frame += 1;
         let up = self.load.upload_ready(
             ctx,
@@ -394,7 +399,7 @@ impl ProgressiveScene {
         if size_changed {
             self.state = Some(ProgressiveState::new(ctx, target)?);
         }
-        let view = (*camera, *hidden_classes);
+        let view = (*camera, *hidden_classes, *splats);
         let changed = size_changed || up.batches > 0 || self.last_view != Some(view);
         self.last_view = Some(view);
         let slots = self.slots();
@@ -405,7 +410,16 @@ impl ProgressiveScene {
             reproject: self.config.reproject,
             screen: *screen,
             hidden_classes: *hidden_classes,
+            splats: *splats,
         };
+        // Adaptive splats: the buffer holds a uniform subset of the file, so its spacing is the
+        // file's grown by √(points in the file / points in the buffer).
+        let shown = self.load.progress().shown().max(1);
+        if let Some(full) = self.load.spacing() {
+            let total = self.load.progress().total.max(shown);
+            self.cloud
+                .set_spacing(full * (total as f64 / shown as f64).sqrt());
+        }
         let Some(state) = self.state.as_mut() else {
             return Err(EngineError::Config("no progressive state".into()));
         };

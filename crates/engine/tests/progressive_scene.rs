@@ -20,7 +20,7 @@ use pointlet_engine::{FillBudget, ProgressiveConfig, ProgressiveReport, Progress
 use pointlet_gpu::progressive::ProgressiveTiming;
 use pointlet_gpu::{
     GpuCloud, GpuContext, PointEncoding, PointSet, RasterVariant, RenderSettings, RenderTarget,
-    Renderer, ScreenSettings,
+    Renderer,
 };
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::writer::{LasWriter, LasWriterConfig};
@@ -178,6 +178,14 @@ fn config(variant: RasterVariant, budget: u64) -> ProgressiveConfig {
     }
 }
 
+/// The scene's own rasterizer with default screen passes and one-pixel points.
+fn settings_of(scene: &ProgressiveScene) -> RenderSettings {
+    RenderSettings {
+        variant: scene.variant(),
+        ..Default::default()
+    }
+}
+
 fn frame(
     ctx: &GpuContext,
     scene: &mut ProgressiveScene,
@@ -185,7 +193,7 @@ fn frame(
     target: &mut RenderTarget,
 ) -> ProgressiveReport {
     scene
-        .frame(ctx, camera, &ScreenSettings::default(), &[0; 8], target)
+        .frame(ctx, camera, &settings_of(scene), target)
         .unwrap()
 }
 

@@ -3,11 +3,12 @@
 // corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU), workgroup partial
 // sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
 // visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
-// origin from double-single (hi + lo f32) coordinates, and one draw entry per resident page of
-// the range to draw — the whole resident prefix up to the request, or when accumulating (camera
-// still) only the points not drawn yet. Entries go to the list of the chunk holding the page;
-// `finalize` turns the counts into indirect dispatch sizes. Replaces the paper's per-frame
-// buffer compaction: only pages change, and drawing reads them where they are.
+// origin from double-single (hi + lo f32) coordinates, the spacing of the points it draws (for
+// adaptive splats), and one draw entry per resident page of the range to draw — the whole
+// resident prefix up to the request, or when accumulating (camera still) only the points not
+// drawn yet. Entries go to the list of the chunk holding the page; `finalize` turns the counts
+// into indirect dispatch sizes. Replaces the paper's per-frame buffer compaction: only pages
+// change, and drawing reads them where they are.
 
 struct Pointlet {
     origin_hi: vec3<f32>,
@@ -41,7 +42,7 @@ struct DrawInfo {
     origin: vec3<f32>,
     flags: u32,
     step: vec3<f32>,
-    _pad: u32,
+    spacing: f32,
 }
 
 struct DrawEntry {
@@ -151,6 +152,20 @@ fn total_pass(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
+// Surface spacing of `n` points spread over a box: its two largest sides span the surface
+// (splat.rs box_spacing, the CPU side of the same rule).
+fn box_spacing(extent: vec3<f32>, n: u32) -> f32 {
+    let e = max(extent, vec3<f32>(0.0));
+    let lo = min(e.x, min(e.y, e.z));
+    let hi = max(e.x, max(e.y, e.z));
+    let mid = e.x + e.y + e.z - lo - hi;
+    let count = f32(max(n, 1u));
+    if hi * mid > 0.0 {
+        return sqrt(hi * mid / count);
+    }
+    return hi / count;
+}
+
 @compute @workgroup_size(256)
 fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -172,7 +187,6 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     let nearest = max(max(o, -(o + p.extent)), vec3<f32>(0.0));
     let cell = max(step.x, max(step.y, step.z)) * 1024.0;
     let fine = params.compact != 0u && cell * params.focal_px > 0.5 * length(nearest);
-    infos[i] = DrawInfo(o, u32(fine), step, 0u);
 
     let st = state[i];
     var start = st.x;
@@ -180,6 +194,8 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         start = max(start, st.z);
     }
     let end = min(req, st.y);
+    // Adaptive splats: the spacing of the points drawn this frame over the pointlet's box.
+    infos[i] = DrawInfo(o, u32(fine), step, box_spacing(p.extent, max(end, st.x) - st.x));
     var drawn = end;
     if params.accumulate != 0u {
         drawn = max(st.z, end);

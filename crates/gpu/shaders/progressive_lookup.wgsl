@@ -24,10 +24,10 @@ fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let slot = ~u32(key & 0xfffffffflu);
-    let first = dispatch.first_slot * PAGE_SIZE;
-    if slot < first || slot - first >= arrayLength(&colors) {
+    if !in_chunk(slot) {
         return;
     }
+    let first = dispatch.first_slot * PAGE_SIZE;
     let depth = key & 0xffffffff00000000lu;
     let kept = color_keys[pixel];
     if (kept & 0xffffffff00000000lu) == depth {

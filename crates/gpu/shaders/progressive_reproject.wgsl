@@ -6,6 +6,7 @@
 // The colour key goes to color_keys as in the Fill pass (color_keys_kept.wgsl), for the tie rule.
 // One thread per list entry; one dispatch per point-buffer chunk, each drawing the entries whose
 // slot lies in its chunk. Every page of a shuffled buffer shares one origin: infos[0].
+// SPLATS: the point's whole splat (common.wgsl), each pixel keyed as the Fill pass keys it.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -24,11 +25,15 @@ fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     let slot = list[k];
-    let first = dispatch.first_slot * PAGE_SIZE;
-    if slot < first || slot - first >= arrayLength(&colors) {
+    if !in_chunk(slot) {
         return;
     }
+    let first = dispatch.first_slot * PAGE_SIZE;
     let index = slot - first;
+    if SPLATS {
+        reproject_splat(slot, index);
+        return;
+    }
     let hit = project(load_position(infos[0], index));
     if hit.pixel == NO_PIXEL {
         return;
@@ -40,4 +45,24 @@ fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     atomicMax(&framebuffer[hit.pixel], (u64(~hit.depth_bits) << 32u) | u64(~slot));
     atomicMax(&color_keys[hit.pixel], (u64(~hit.depth_bits) << 32u) | u64(~color));
+}
+
+fn reproject_splat(slot: u32, index: u32) {
+    let s = project_splat(load_position(infos[0], index), infos[0].spacing);
+    if !s.valid {
+        return;
+    }
+    let color = load_color(index);
+    if class_hidden(color) {
+        return;
+    }
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL {
+            continue;
+        }
+        let high = u64(tier_depth(~s.depth_bits, px.ring)) << 32u;
+        atomicMax(&framebuffer[px.pixel], high | u64(~slot));
+        atomicMax(&color_keys[px.pixel], high | u64(~color));
+    }
 }

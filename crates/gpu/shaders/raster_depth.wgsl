@@ -2,6 +2,7 @@
 // fallback rasterizer (adapters without 64-bit atomics) and by both high-quality variants
 // (compute-shader paper §3.5: "the depth pass ... with simple 32bit atomic operations").
 // Stores ~depth_bits with atomicMax so a cleared (zero) buffer means empty.
+// SPLATS: every pixel of the splat, the gap-filling ring at its lower tier (common.wgsl).
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -23,6 +24,10 @@ fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
+        if SPLATS {
+            splat_depth(w, i);
+            continue;
+        }
         let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
@@ -30,6 +35,23 @@ fn depth_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         let inv = ~hit.depth_bits;
         if atomicLoad(&depth_buffer[hit.pixel]) < inv && !index_hidden(w.base + i) {
             atomicMax(&depth_buffer[hit.pixel], inv);
+        }
+    }
+}
+
+fn splat_depth(w: Work, i: u32) {
+    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+    if !s.valid || index_hidden(w.base + i) {
+        return;
+    }
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL {
+            continue;
+        }
+        let inv = tier_depth(~s.depth_bits, px.ring);
+        if atomicLoad(&depth_buffer[px.pixel]) < inv {
+            atomicMax(&depth_buffer[px.pixel], inv);
         }
     }
 }

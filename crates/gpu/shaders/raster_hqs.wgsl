@@ -2,6 +2,8 @@
 // every point within `blend_factor` (1 %) of the closest depth found by raster_depth.wgsl adds
 // its colour and a count with four 32-bit atomicAdds; the resolve pass divides. 32-bit atomics
 // only, so HQS also runs where 64-bit atomics are missing.
+// SPLATS (Botsch et al.'s blending of splats, WebGPU-engine paper §6.2): every pixel of a splat
+// whose depth is within the tolerance of the pixel's closest, and of the same tier, adds.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -18,6 +20,10 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
+        if SPLATS {
+            splat_accumulate(w, i);
+            continue;
+        }
         let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
@@ -34,5 +40,38 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
             atomicAdd(&sums[at + 3u], 1u);
         }
+    }
+}
+
+fn splat_accumulate(w: Work, i: u32) {
+    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+    if !s.valid {
+        return;
+    }
+    var color = 0u;
+    var fetched = false;
+    let depth = bitcast<f32>(s.depth_bits);
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL {
+            continue;
+        }
+        let stored = atomicLoad(&depth_buffer[px.pixel]);
+        let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
+        if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
+            continue;
+        }
+        if !fetched {
+            color = load_color(w.base + i);
+            fetched = true;
+            if class_hidden(color) {
+                return;
+            }
+        }
+        let at = px.pixel * 4u;
+        atomicAdd(&sums[at], color & 0xffu);
+        atomicAdd(&sums[at + 1u], (color >> 8u) & 0xffu);
+        atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
+        atomicAdd(&sums[at + 3u], 1u);
     }
 }

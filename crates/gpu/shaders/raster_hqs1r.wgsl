@@ -3,6 +3,7 @@
 // The lane that sees the count reach 255 moves the word into the two 64-bit fallback words
 // (r<<32|g, b<<32|count) and zeroes it; lanes that arrive while the count is ≥ 255 add themselves
 // to the fallback directly. The spare count bits absorb lanes racing with the reset.
+// SPLATS: every pixel of a splat within the tolerance and of the closest's tier adds (raster_hqs).
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -19,6 +20,10 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
+        if SPLATS {
+            splat_accumulate(w, i);
+            continue;
+        }
         let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
@@ -31,22 +36,56 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         if class_hidden(color) {
             continue;
         }
-        var r = u64(color & 0xffu);
-        var g = u64((color >> 8u) & 0xffu);
-        var b = u64((color >> 16u) & 0xffu);
-        let old = atomicAdd(&packed[hit.pixel], (r << 48u) | (g << 32u) | (b << 16u) | 1lu);
-        let count = u32(old & 0xfffflu);
-        if count >= 255u {
-            var a = 1lu;
-            if count == 255u {
-                atomicExchange(&packed[hit.pixel], 0lu);
-                r += (old >> 48u) & 0xfffflu;
-                g += (old >> 32u) & 0xfffflu;
-                b += (old >> 16u) & 0xfffflu;
-                a += 255lu;
-            }
-            atomicAdd(&overflow[hit.pixel * 2u], (r << 32u) | g);
-            atomicAdd(&overflow[hit.pixel * 2u + 1u], (b << 32u) | a);
+        add_color(hit.pixel, color);
+    }
+}
+
+fn splat_accumulate(w: Work, i: u32) {
+    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+    if !s.valid {
+        return;
+    }
+    var color = 0u;
+    var fetched = false;
+    let depth = bitcast<f32>(s.depth_bits);
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL {
+            continue;
         }
+        let stored = atomicLoad(&depth_buffer[px.pixel]);
+        let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
+        if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
+            continue;
+        }
+        if !fetched {
+            color = load_color(w.base + i);
+            fetched = true;
+            if class_hidden(color) {
+                return;
+            }
+        }
+        add_color(px.pixel, color);
+    }
+}
+
+// One atomicAdd of the packed word; past 255 adds the word and the colour go to the fallback.
+fn add_color(pixel: u32, color: u32) {
+    var r = u64(color & 0xffu);
+    var g = u64((color >> 8u) & 0xffu);
+    var b = u64((color >> 16u) & 0xffu);
+    let old = atomicAdd(&packed[pixel], (r << 48u) | (g << 32u) | (b << 16u) | 1lu);
+    let count = u32(old & 0xfffflu);
+    if count >= 255u {
+        var a = 1lu;
+        if count == 255u {
+            atomicExchange(&packed[pixel], 0lu);
+            r += (old >> 48u) & 0xfffflu;
+            g += (old >> 32u) & 0xfffflu;
+            b += (old >> 16u) & 0xfffflu;
+            a += 255lu;
+        }
+        atomicAdd(&overflow[pixel * 2u], (r << 32u) | g);
+        atomicAdd(&overflow[pixel * 2u + 1u], (b << 32u) | a);
     }
 }

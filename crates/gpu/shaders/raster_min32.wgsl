@@ -3,6 +3,7 @@
 // race for the colour with a 32-bit atomicMax of ~rgba. Same image as the 64-bit path: the
 // closest point, and on equal depth the smaller colour. With PICK the point's id (slot ·
 // PAGE_SIZE + index in the page) is stored instead of its colour: picking reads the point.
+// SPLATS: every pixel of the splat whose stored depth word (tier included) is the splat's.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -19,6 +20,10 @@ fn color_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
+        if SPLATS {
+            splat_color(w, i);
+            continue;
+        }
         let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
@@ -31,5 +36,30 @@ fn color_pass(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             let value = select(color, w.slot * PAGE_SIZE + i, PICK);
             atomicMax(&color_buffer[hit.pixel], ~value);
         }
+    }
+}
+
+fn splat_color(w: Work, i: u32) {
+    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+    if !s.valid {
+        return;
+    }
+    var value = 0u;
+    var fetched = false;
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL
+            || atomicLoad(&depth_buffer[px.pixel]) != tier_depth(~s.depth_bits, px.ring) {
+            continue;
+        }
+        if !fetched {
+            let color = load_color(w.base + i);
+            if class_hidden(color) {
+                return;
+            }
+            value = select(color, w.slot * PAGE_SIZE + i, PICK);
+            fetched = true;
+        }
+        atomicMax(&color_buffer[px.pixel], ~value);
     }
 }

@@ -6,6 +6,8 @@
 // INDEX_KEYS (progressive rendering, progressive.rs) puts the point's id (its slot in the shuffled
 // buffer) in the low word instead of the colour, so the Prepare pass can list the winners; the
 // colour key goes to keep_color_key (color_keys_*.wgsl) for the tie rule.
+// SPLATS: the same key written to every pixel of the point's splat (common.wgsl), early depth
+// test per pixel; the gap-filling ring writes its lower-tier keys.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -26,6 +28,10 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         return;
     }
     for (var i = w.first + lid; i < w.end; i += WG) {
+        if SPLATS {
+            draw_splat(w, i);
+            continue;
+        }
         let hit = project(load_position(w.info, w.base + i));
         if hit.pixel == NO_PIXEL {
             continue;
@@ -42,5 +48,34 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
         atomicMax(&framebuffer[hit.pixel], point_key(hit.depth_bits, low));
         keep_color_key(hit.pixel, point_key(hit.depth_bits, color));
+    }
+}
+
+fn draw_splat(w: Work, i: u32) {
+    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+    if !s.valid {
+        return;
+    }
+    var color = 0u;
+    var fetched = false;
+    for (var k = 0u; k < s.ring * s.ring; k++) {
+        let px = splat_pixel(s, k);
+        if px.pixel == NO_PIXEL {
+            continue;
+        }
+        let inv = tier_depth(~s.depth_bits, px.ring);
+        if EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv {
+            continue;
+        }
+        if !fetched {
+            color = load_color(w.base + i);
+            fetched = true;
+            if class_hidden(color) {
+                return;
+            }
+        }
+        let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+        atomicMax(&framebuffer[px.pixel], (u64(inv) << 32u) | u64(~low));
+        keep_color_key(px.pixel, (u64(inv) << 32u) | u64(~color));
     }
 }

@@ -6,6 +6,8 @@
 // after DEDUP_ROUNDS rounds the remaining lanes write directly (bounded cost on close-ups).
 // EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements),
 // with the point id instead of the colour under INDEX_KEYS (color_keys_*.wgsl).
+// SPLATS: every lane walks its splat's pixels (common.wgsl) in step with the others, as many
+// steps as the largest splat of the subgroup, and each step reduces like single pixels.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -33,6 +35,10 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let rounds = (w.end - w.first + WG - 1u) / WG;
     for (var k = 0u; k < rounds; k++) {
         let i = w.first + k * WG + lid;
+        if SPLATS {
+            raster_splat(w, i);
+            continue;
+        }
         var pixel = NO_PIXEL;
         var inv_depth = 0u;
         var color = 0u;
@@ -51,40 +57,78 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
                 }
             }
         }
-        if MODE == 0u {
-            let first = subgroupBroadcastFirst(pixel);
-            var best = inv_depth;
-            if subgroupAll(pixel == first) {
-                best = subgroupMax(inv_depth);
-            } else {
-                let other_pixel = subgroupShuffleXor(pixel, 1u);
-                let other_depth = subgroupShuffleXor(inv_depth, 1u);
-                if other_pixel == pixel {
-                    best = max(inv_depth, other_depth);
+        reduce_and_write(pixel, inv_depth, low, color);
+    }
+}
+
+// One point per lane (or none): lanes of the splat `i` (past w.end: none) walk its pixels.
+fn raster_splat(w: Work, i: u32) {
+    var s: Splat;
+    s.valid = false;
+    var color = 0u;
+    if i < w.end {
+        s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
+        if s.valid {
+            color = load_color(w.base + i);
+            s.valid = !class_hidden(color);
+        }
+    }
+    let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+    let n = select(0u, s.ring * s.ring, s.valid);
+    let steps = subgroupMax(n);
+    for (var j = 0u; j < steps; j++) {
+        var pixel = NO_PIXEL;
+        var inv_depth = 0u;
+        if j < n {
+            let px = splat_pixel(s, j);
+            if px.pixel != NO_PIXEL {
+                let inv = tier_depth(~s.depth_bits, px.ring);
+                if !(EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv) {
+                    pixel = px.pixel;
+                    inv_depth = inv;
                 }
             }
-            if pixel != NO_PIXEL && inv_depth == best {
-                write_key(pixel, inv_depth, low, color);
-            }
+        }
+        reduce_and_write(pixel, inv_depth, low, color);
+    }
+}
+
+// The lanes' candidates (NO_PIXEL: none) reduced across the subgroup, then written. Called in
+// uniform control flow.
+fn reduce_and_write(pixel: u32, inv_depth: u32, low: u32, color: u32) {
+    if MODE == 0u {
+        let first = subgroupBroadcastFirst(pixel);
+        var best = inv_depth;
+        if subgroupAll(pixel == first) {
+            best = subgroupMax(inv_depth);
         } else {
-            var pending = pixel != NO_PIXEL;
-            for (var round = 0u; round < DEDUP_ROUNDS; round++) {
-                if !subgroupAny(pending) {
-                    break;
-                }
-                let leader = subgroupMin(select(NO_PIXEL, pixel, pending));
-                let mine = pending && pixel == leader;
-                let best = subgroupMax(select(0u, inv_depth, mine));
-                if mine {
-                    pending = false;
-                    if inv_depth == best {
-                        write_key(pixel, inv_depth, low, color);
-                    }
+            let other_pixel = subgroupShuffleXor(pixel, 1u);
+            let other_depth = subgroupShuffleXor(inv_depth, 1u);
+            if other_pixel == pixel {
+                best = max(inv_depth, other_depth);
+            }
+        }
+        if pixel != NO_PIXEL && inv_depth == best {
+            write_key(pixel, inv_depth, low, color);
+        }
+    } else {
+        var pending = pixel != NO_PIXEL;
+        for (var round = 0u; round < DEDUP_ROUNDS; round++) {
+            if !subgroupAny(pending) {
+                break;
+            }
+            let leader = subgroupMin(select(NO_PIXEL, pixel, pending));
+            let mine = pending && pixel == leader;
+            let best = subgroupMax(select(0u, inv_depth, mine));
+            if mine {
+                pending = false;
+                if inv_depth == best {
+                    write_key(pixel, inv_depth, low, color);
                 }
             }
-            if pending {
-                write_key(pixel, inv_depth, low, color);
-            }
+        }
+        if pending {
+            write_key(pixel, inv_depth, low, color);
         }
     }
 }

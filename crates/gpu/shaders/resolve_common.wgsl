@@ -20,3 +20,9 @@ fn write_empty(xy: vec2<u32>) {
     textureStore(out_color, xy, vec4<f32>(0.0));
     textureStore(out_depth, xy, vec4<f32>(0.0));
 }
+
+// Depth bits of an inverted depth word; splats' gap-filling rings clear its top bit (their lower
+// tier, common.wgsl), which positive depths never set.
+fn depth_bits_of(inv_depth: u32) -> u32 {
+    return ~(inv_depth | 0x80000000u);
+}

@@ -17,5 +17,5 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     let r = sums[p * 4u] / n;
     let g = sums[p * 4u + 1u] / n;
     let b = sums[p * 4u + 2u] / n;
-    write_pixel(id.xy, r | (g << 8u) | (b << 16u), ~depth_buffer[p]);
+    write_pixel(id.xy, r | (g << 8u) | (b << 16u), depth_bits_of(depth_buffer[p]));
 }

@@ -21,5 +21,5 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     let r = (u32((w >> 48u) & 0xfffflu) + u32(rg >> 32u)) / n;
     let g = (u32((w >> 32u) & 0xfffflu) + u32(rg & 0xfffffffflu)) / n;
     let b = (u32((w >> 16u) & 0xfffflu) + u32(ba >> 32u)) / n;
-    write_pixel(id.xy, r | (g << 8u) | (b << 16u), ~depth_buffer[p]);
+    write_pixel(id.xy, r | (g << 8u) | (b << 16u), depth_bits_of(depth_buffer[p]));
 }

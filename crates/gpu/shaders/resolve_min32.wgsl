@@ -14,5 +14,5 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         write_empty(id.xy);
         return;
     }
-    write_pixel(id.xy, ~color_buffer[p], ~inv_depth);
+    write_pixel(id.xy, ~color_buffer[p], depth_bits_of(inv_depth));
 }

@@ -13,5 +13,5 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         write_empty(id.xy);
         return;
     }
-    write_pixel(id.xy, ~u32(key & 0xfffffffflu), ~u32(key >> 32u));
+    write_pixel(id.xy, ~u32(key & 0xfffffffflu), depth_bits_of(u32(key >> 32u)));
 }

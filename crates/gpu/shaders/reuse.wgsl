@@ -35,7 +35,7 @@ fn reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     if key == 0lu {
         return;
     }
-    let w = bitcast<f32>(~u32(key >> 32u));
+    let w = bitcast<f32>(~(u32(key >> 32u) | 0x80000000u));
     let ndc = vec2<f32>((f32(id.x) + 0.5) / f32(reuse.size.x) * 2.0 - 1.0,
                         1.0 - (f32(id.y) + 0.5) / f32(reuse.size.y) * 2.0);
     let c = reuse.to_new * vec4<f32>(ndc * w, w, 1.0);
@@ -46,7 +46,9 @@ fn reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = min(u32(max((at.x * 0.5 + 0.5) * f32(reuse.size.x), 0.0)), reuse.size.x - 1u);
     let y = min(u32(max((0.5 - at.y * 0.5) * f32(reuse.size.y), 0.0)), reuse.size.y - 1u);
     // The same key layout as raster_min64.wgsl: ~depth << 32 | ~rgba.
-    let moved = (u64(~bitcast<u32>(c.w)) << 32u) | (key & 0xfffffffflu);
+    // A splat's gap-filling ring keeps its lower tier (common.wgsl): the tier bit is kept.
+    let inv = ~bitcast<u32>(c.w) & (u32(key >> 32u) | 0x7fffffffu);
+    let moved = (u64(inv) << 32u) | (key & 0xfffffffflu);
     let pixel = y * reuse.size.x + x;
     atomicMax(&keys[pixel], moved);
     atomicMax(&ghost[pixel], moved);

@@ -6,6 +6,7 @@
 //! camera-relative coordinates.
 
 use crate::context::GpuContext;
+use crate::splat::SplatSettings;
 use crate::storage::{
     check_page_size, compact_step, encode_positions, needs_fine, DrawBuffers, GpuDrawEntry,
     GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
@@ -72,6 +73,8 @@ pub struct GpuCloud {
     _entry_counts: wgpu::Buffer,
     staging: Vec<GpuDrawInfo>,
     fine_points: u64,
+    /// Surface spacing of the whole cloud, for adaptive splats.
+    spacing: f64,
 }
 
 /// Bytes encoded and written per upload step: bounds the staging memory of huge uploads.
@@ -212,6 +215,8 @@ impl GpuCloud {
             _entries: entries,
             _entry_counts: entry_counts,
             fine_points: 0,
+            spacing: pointlet_core::density::cloud_spacing(&set.positions, n as u64, 1 << 20)
+                .unwrap_or(0.0),
         })
     }
 
@@ -227,6 +232,16 @@ impl GpuCloud {
 
     pub fn page_metas(&self) -> &[PageMeta] {
         &self.pages
+    }
+
+    /// Surface spacing adaptive splats are sized from (1/√density; measured at upload).
+    pub fn spacing(&self) -> f64 {
+        self.spacing
+    }
+
+    /// Overrides the measured spacing (when the cloud stands for more points than it holds).
+    pub fn set_spacing(&mut self, spacing: f64) {
+        self.spacing = spacing;
     }
 
     /// Replaces every colour (same points, same order: e.g. another attribute to colour by);
@@ -263,9 +278,11 @@ impl GpuCloud {
         camera: &Camera,
         size: (u32, u32),
         hidden_classes: &[u32; 8],
+        splats: &SplatSettings,
     ) {
         let height = size.1;
-        let focal_px = 0.5 * height as f64 / (camera.fov_y_deg.to_radians() * 0.5).tan();
+        let spacing = self.spacing as f32;
+        let focal_px = camera.focal_px(height);
         let eye = camera.eye;
         let compact = self.encoding == PointEncoding::Compact8;
         self.staging
@@ -276,7 +293,7 @@ impl GpuCloud {
                     origin: [0, 1, 2].map(|a| (p.origin[a] - eye[a]) as f32),
                     flags: (compact && p.needs_fine(eye, focal_px)) as u32,
                     step: p.step().map(|s| s as f32),
-                    _pad: 0,
+                    spacing,
                 };
             });
         self.fine_points = self
@@ -290,18 +307,26 @@ impl GpuCloud {
             ctx.queue
                 .write_buffer(&self.infos, 0, bytemuck::cast_slice(&self.staging));
         }
-        write_frame(ctx, &self.frame_uniform, camera, size, hidden_classes);
+        write_frame(
+            ctx,
+            &self.frame_uniform,
+            camera,
+            size,
+            hidden_classes,
+            splats,
+        );
     }
 }
 
-/// Writes the per-frame uniform: the camera-relative view-projection, the image size and the
-/// hidden classes.
+/// Writes the per-frame uniform: the camera-relative view-projection, the image size, the
+/// hidden classes and the splat sizes.
 pub(crate) fn write_frame(
     ctx: &GpuContext,
     uniform: &wgpu::Buffer,
     camera: &Camera,
     (width, height): (u32, u32),
     hidden_classes: &[u32; 8],
+    splats: &SplatSettings,
 ) {
     let frame = GpuFrame {
         view_proj: pointlet_core::camera::to_f32(
@@ -311,6 +336,7 @@ pub(crate) fn write_frame(
         blend_factor: 1.01,
         any_hidden: hidden_classes.iter().any(|w| *w != 0) as u32,
         hidden_classes: *hidden_classes,
+        splat: splats.uniform(camera.focal_px(height)),
     };
     ctx.queue
         .write_buffer(uniform, 0, bytemuck::bytes_of(&frame));

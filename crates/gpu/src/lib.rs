@@ -16,6 +16,7 @@ mod reuse;
 mod screen;
 mod shaders;
 pub mod shuffle;
+mod splat;
 mod storage;
 mod target;
 mod upload;
@@ -29,6 +30,7 @@ pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use reuse::{reprojection, TemporalReuse};
 pub use screen::{EdlSettings, OcclusionSettings, ScreenSettings};
+pub use splat::{box_spacing, PointSize, SplatSettings, SplatShape, MAX_SPLAT};
 pub use storage::{
     compact_step, decode_compact, encode_point, encode_positions, needs_fine, quantize_compact,
     PointEncoding, COMPACT_STEPS,

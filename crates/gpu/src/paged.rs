@@ -6,6 +6,7 @@
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
 use crate::raster::storage_group;
+use crate::renderer::RenderSettings;
 use crate::storage::{
     DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
 };
@@ -455,7 +456,7 @@ impl PagedCloud {
         camera: &Camera,
         (width, height): (u32, u32),
         view: &PagedView,
-        hidden_classes: &[u32; 8],
+        settings: &RenderSettings,
         queries: Option<&wgpu::QuerySet>,
     ) -> Result<(), GpuError> {
         // Timestamps: LoD at 0/1, uploads at 6/7 (raster and screen use 2–5).
@@ -481,7 +482,8 @@ impl PagedCloud {
             &self.frame_uniform,
             camera,
             (width, height),
-            hidden_classes,
+            &settings.hidden_classes,
+            &settings.splats,
         );
         let eye = camera.eye.map(split);
         let params = LodParams {
@@ -493,7 +495,7 @@ impl PagedCloud {
             eye_lo: eye.map(|v| v.1),
             bucket: view.bucket as f32,
             viewport: [width as f32, height as f32],
-            focal_px: (0.5 * height as f64 / (camera.fov_y_deg.to_radians() * 0.5).tan()) as f32,
+            focal_px: camera.focal_px(height) as f32,
             compact: (self.encoding == PointEncoding::Compact8) as u32,
             accumulate: view.accumulate as u32,
             page_size: self.page_size,

@@ -7,7 +7,8 @@ use crate::context::GpuContext;
 use crate::paged::{PagedCloud, PagedView};
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::renderer::{RenderSettings, Renderer};
-use crate::storage::PointStorage;
+use crate::splat::SplatMode;
+use crate::storage::{PointEncoding, PointStorage};
 use crate::target::{map_read, RenderTarget};
 use crate::GpuError;
 use pointlet_core::Camera;
@@ -36,19 +37,19 @@ impl Renderer {
         pixel: [u32; 2],
         radius: u32,
     ) -> Result<Option<PickHit>, GpuError> {
-        Self::check(ctx, RasterVariant::AtomicMin32, camera)?;
+        Self::check(ctx, RasterVariant::AtomicMin32, &settings.splats, camera)?;
         cloud.prepare(
             ctx,
             camera,
             (target.width, target.height),
             &settings.hidden_classes,
+            &settings.splats,
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.record_pick(
             ctx,
             &mut enc,
-            cloud.encoding,
-            cloud.page_size,
+            (cloud.encoding, cloud.page_size, settings.splats.mode()),
             &cloud.storage,
             RasterDispatch::Direct,
             target,
@@ -71,7 +72,7 @@ impl Renderer {
         pixel: [u32; 2],
         radius: u32,
     ) -> Result<Option<PickHit>, GpuError> {
-        Self::check(ctx, RasterVariant::AtomicMin32, camera)?;
+        Self::check(ctx, RasterVariant::AtomicMin32, &settings.splats, camera)?;
         let view = PagedView {
             accumulate: false,
             ..*view
@@ -83,15 +84,14 @@ impl Renderer {
             camera,
             (target.width, target.height),
             &view,
-            &settings.hidden_classes,
+            settings,
             None,
         )?;
-        let (encoding, page_size) = (paged.encoding, paged.page_size);
+        let key = (paged.encoding, paged.page_size, settings.splats.mode());
         self.record_pick(
             ctx,
             &mut enc,
-            encoding,
-            page_size,
+            key,
             &paged.storage,
             RasterDispatch::Indirect(&paged.indirect),
             target,
@@ -106,18 +106,17 @@ impl Renderer {
         &mut self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
-        encoding: crate::storage::PointEncoding,
-        page_size: u32,
+        key: (PointEncoding, u32, SplatMode),
         storage: &PointStorage,
         dispatch: RasterDispatch<'_>,
         target: &RenderTarget,
     ) -> Result<(), GpuError> {
-        if let Entry::Vacant(slot) = self.pick.entry((encoding, page_size)) {
+        if let Entry::Vacant(slot) = self.pick.entry(key) {
             slot.insert(ctx.checked("building the pick passes", || {
-                RasterPipelines::pick(&ctx.device, encoding, page_size)
+                RasterPipelines::pick(&ctx.device, key.0, key.1, key.2)
             })?);
         }
-        let Some(pipes) = self.pick.get(&(encoding, page_size)) else {
+        let Some(pipes) = self.pick.get(&key) else {
             return Ok(());
         };
         let buffers = [&target.pixels.depth32, &target.pixels.color32];
@@ -131,6 +130,12 @@ impl Renderer {
         pipes.record(&ctx.device, &mut pass, storage, dispatch, &buffers);
         Ok(())
     }
+}
+
+/// The depth bits of an inverted depth word of either splat tier (common.wgsl: a gap-filling
+/// ring clears the top bit, which positive depths never set).
+pub(crate) fn untier(inv_depth: u32) -> u32 {
+    !(inv_depth | 0x8000_0000)
 }
 
 /// Reads the rows around `pixel` and picks the nearest covered pixel within `radius`.
@@ -163,7 +168,7 @@ fn read_pick(
     let depth: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &depth_rb)?);
     let ids: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &id_rb)?);
     let hit_at = |k: usize| match (depth.get(k), ids.get(k)) {
-        (Some(d), Some(id)) if *d != 0 => Some((!*id, f32::from_bits(!*d))),
+        (Some(d), Some(id)) if *d != 0 => Some((!*id, f32::from_bits(untier(*d)))),
         _ => None,
     };
     Ok(nearest_in_rows(w, pixel, radius, y0..=y1, hit_at))

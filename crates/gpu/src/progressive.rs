@@ -13,7 +13,7 @@
 
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
-use crate::pick::{nearest_in_rows, rows_around, PickHit};
+use crate::pick::{nearest_in_rows, rows_around, untier, PickHit};
 use crate::raster::{
     grid, storage_group, storage_layout, PixelKind, RasterDispatch, RasterPipelines, RasterVariant,
     WORKGROUP,
@@ -22,6 +22,7 @@ use crate::renderer::Renderer;
 use crate::screen::{ScreenPasses, ScreenSettings};
 use crate::shaders;
 use crate::shuffle::ShuffledBuffer;
+use crate::splat::{self, SplatMode, SplatSettings};
 use crate::storage::{
     check_page_size, point_group_layout, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame,
     PointEncoding, PointStorage,
@@ -29,6 +30,8 @@ use crate::storage::{
 use crate::target::{map_read, RenderTarget};
 use crate::GpuError;
 use pointlet_core::{Aabb, Camera};
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
 
 /// The encoding of progressive clouds. Pages of a shuffled buffer hold points from all over
 /// the cloud, so per-page origins would buy no precision: every page takes the cloud's bounds
@@ -53,6 +56,8 @@ pub struct ProgressiveCloud {
     fill_args: wgpu::Buffer,
     /// Draw entries reserved per chunk in `entries`.
     entry_stride: u32,
+    /// Surface spacing of the points in the buffer, for adaptive splats (0: unknown).
+    spacing: f64,
 }
 
 impl ProgressiveCloud {
@@ -137,6 +142,7 @@ impl ProgressiveCloud {
             entry_counts,
             fill_args,
             entry_stride,
+            spacing: 0.0,
         })
     }
 
@@ -185,21 +191,39 @@ impl ProgressiveCloud {
         })))
     }
 
+    /// Sets the surface spacing of the points in the buffer (adaptive splats are sized from
+    /// it): the loader measures the file's density as it reads.
+    pub fn set_spacing(&mut self, spacing: f64) {
+        self.spacing = spacing;
+    }
+
+    pub fn spacing(&self) -> f64 {
+        self.spacing
+    }
+
     /// Writes the camera-relative origin and the frame uniform.
     fn prepare(
         &self,
         ctx: &GpuContext,
         camera: &Camera,
         size: (u32, u32),
-        hidden_classes: &[u32; 8],
+        settings: &ProgressiveSettings,
     ) {
         let info = GpuDrawInfo {
             origin: [0, 1, 2].map(|a| (self.origin[a] - camera.eye[a]) as f32),
+            spacing: self.spacing as f32,
             ..Default::default()
         };
         ctx.queue
             .write_buffer(&self.infos, 0, bytemuck::bytes_of(&info));
-        write_frame(ctx, &self.frame_uniform, camera, size, hidden_classes);
+        write_frame(
+            ctx,
+            &self.frame_uniform,
+            camera,
+            size,
+            &settings.hidden_classes,
+            &settings.splats,
+        );
     }
 
     /// Writes the Fill pass's draw entries for slots `first..first + count` (wrapping at N):
@@ -320,8 +344,6 @@ pub struct ProgressiveState {
     list: wgpu::Buffer,
     /// The list's length in its first u32.
     list_len: wgpu::Buffer,
-    /// The image size, for the Prepare pass.
-    size: wgpu::Buffer,
     has_list: bool,
     next_fill: u32,
 }
@@ -343,9 +365,6 @@ impl ProgressiveState {
             })
         };
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        let size = buffer("progressive size", 16, wgpu::BufferUsages::UNIFORM)?;
-        ctx.queue
-            .write_buffer(&size, 0, bytemuck::cast_slice(&[width, height, 0, 0]));
         Ok(Self {
             width,
             height,
@@ -354,7 +373,6 @@ impl ProgressiveState {
             color_keys_kept: false,
             list: buffer("reproject list", pixels * 4, storage)?,
             list_len: buffer("reproject list length", 16, storage)?,
-            size,
             has_list: false,
             next_fill: 0,
         })
@@ -404,7 +422,9 @@ impl ProgressiveState {
             (y1 - y0 + 1) * row,
         )?);
         let hit_at = |k: usize| match keys.get(k) {
-            Some(&key) if key != 0 => Some((!(key as u32), f32::from_bits(!((key >> 32) as u32)))),
+            Some(&key) if key != 0 => {
+                Some((!(key as u32), f32::from_bits(untier((key >> 32) as u32))))
+            }
             _ => None,
         };
         Ok(nearest_in_rows(w, pixel, radius, rows, hit_at))
@@ -503,14 +523,20 @@ struct ReprojectPass {
 }
 
 impl ReprojectPass {
-    fn new(device: &wgpu::Device, page_size: u32) -> Self {
+    fn new(device: &wgpu::Device, page_size: u32, splats: SplatMode) -> Self {
+        let [splat, circle] = splat::constants(splats);
         let (pipeline, group1) = point_pipeline(
             device,
             "reproject",
             shaders::PROGRESSIVE_REPROJECT,
             "reproject",
             4,
-            &[("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)],
+            &[
+                ("WG", WORKGROUP as f64),
+                ("PAGE_SIZE", page_size as f64),
+                splat,
+                circle,
+            ],
         );
         Self { pipeline, group1 }
     }
@@ -557,9 +583,14 @@ struct FillPass {
 }
 
 impl FillPass {
-    fn new(device: &wgpu::Device, variant: RasterVariant, page_size: u32) -> Self {
+    fn new(
+        device: &wgpu::Device,
+        variant: RasterVariant,
+        page_size: u32,
+        splats: SplatMode,
+    ) -> Self {
         Self {
-            pipelines: RasterPipelines::indexed(device, variant, ENCODING, page_size),
+            pipelines: RasterPipelines::indexed(device, variant, ENCODING, page_size, splats),
         }
     }
 
@@ -636,43 +667,55 @@ impl LookupPass {
 /// Pass 3: the list of the slots shown, for the next frame (progressive_prepare.wgsl).
 struct PreparePass {
     pipeline: wgpu::ComputePipeline,
+    group1: wgpu::BindGroupLayout,
 }
 
 impl PreparePass {
-    fn new(device: &wgpu::Device) -> Self {
-        let module = shaders::module(device, "prepare", shaders::PROGRESSIVE_PREPARE);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("prepare"),
-            layout: None,
-            module: &module,
-            entry_point: Some("prepare"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Self { pipeline }
+    fn new(device: &wgpu::Device, page_size: u32, splats: SplatMode) -> Self {
+        let [splat, circle] = splat::constants(splats);
+        let (pipeline, group1) = point_pipeline(
+            device,
+            "prepare",
+            shaders::PROGRESSIVE_PREPARE,
+            "prepare",
+            3,
+            &[("PAGE_SIZE", page_size as f64), splat, circle],
+        );
+        Self { pipeline, group1 }
     }
 
     fn record(
         &self,
         device: &wgpu::Device,
         enc: &mut wgpu::CommandEncoder,
+        cloud: &ProgressiveCloud,
         state: &ProgressiveState,
     ) {
         enc.clear_buffer(&state.list_len, 0, None);
-        let group = storage_group(
+        let group1 = storage_group(
             device,
             "prepare",
-            &self.pipeline.get_bind_group_layout(0),
-            &[&state.size, &state.indexed, &state.list, &state.list_len],
+            &self.group1,
+            &[&state.indexed, &state.list, &state.list_len],
         );
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("prepare"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups(state.width.div_ceil(8), state.height.div_ceil(8), 1);
+        pass.set_bind_group(1, &group1, &[]);
+        for chunk in &cloud.storage.chunks {
+            pass.set_bind_group(0, &chunk.bind_group, &[]);
+            pass.dispatch_workgroups(state.width.div_ceil(8), state.height.div_ceil(8), 1);
+        }
     }
+}
+
+/// The passes that draw points, for one splat mode.
+struct PointPasses {
+    reproject: ReprojectPass,
+    fill: FillPass,
+    prepare: PreparePass,
 }
 
 /// One progressive frame's choices.
@@ -685,6 +728,8 @@ pub struct ProgressiveSettings {
     pub screen: ScreenSettings,
     /// One bit per ASPRS class, as [`crate::RenderSettings::hidden_classes`].
     pub hidden_classes: [u32; 8],
+    /// Point size and shape (adaptive splats take the cloud's spacing).
+    pub splats: SplatSettings,
 }
 
 /// The progressive passes of one closest-point variant and page size, and the screen passes
@@ -692,10 +737,9 @@ pub struct ProgressiveSettings {
 pub struct ProgressiveRenderer {
     variant: RasterVariant,
     page_size: u32,
-    reproject: ReprojectPass,
-    fill: FillPass,
+    /// Built on first use of each splat mode.
+    points: HashMap<SplatMode, PointPasses>,
     lookup: LookupPass,
-    prepare: PreparePass,
     screen: ScreenPasses,
     /// Frames submitted so far (the ids timings carry).
     frames: u64,
@@ -742,10 +786,8 @@ impl ProgressiveRenderer {
         ctx.checked("building the progressive passes", || Self {
             variant,
             page_size,
-            reproject: ReprojectPass::new(device, page_size),
-            fill: FillPass::new(device, variant, page_size),
+            points: HashMap::new(),
             lookup: LookupPass::new(device, page_size),
-            prepare: PreparePass::new(device),
             screen: ScreenPasses::new(device),
             frames: 0,
             in_flight: std::collections::VecDeque::new(),
@@ -801,7 +843,21 @@ impl ProgressiveRenderer {
         settings: &ProgressiveSettings,
         target: &mut RenderTarget,
     ) -> Result<(), GpuError> {
-        Renderer::check(ctx, self.variant, camera)?;
+        Renderer::check(ctx, self.variant, &settings.splats, camera)?;
+        let mode = settings.splats.mode();
+        if let Entry::Vacant(slot) = self.points.entry(mode) {
+            let (device, variant, page_size) = (&ctx.device, self.variant, self.page_size);
+            slot.insert(
+                ctx.checked("building the progressive passes", || PointPasses {
+                    reproject: ReprojectPass::new(device, page_size, mode),
+                    fill: FillPass::new(device, variant, page_size, mode),
+                    prepare: PreparePass::new(device, page_size, mode),
+                })?,
+            );
+        }
+        let Some(passes) = self.points.get(&mode) else {
+            return Ok(());
+        };
         if cloud.page_size != self.page_size {
             return Err(GpuError::InvalidInput(format!(
                 "a cloud of {}-point pages drawn by passes built for {}-point pages",
@@ -815,12 +871,7 @@ impl ProgressiveRenderer {
             )));
         }
         let budget = settings.budget.min(cloud.points);
-        cloud.prepare(
-            ctx,
-            camera,
-            (target.width, target.height),
-            &settings.hidden_classes,
-        );
+        cloud.prepare(ctx, camera, (target.width, target.height), settings);
         cloud.write_fill(ctx, state.next_fill, budget);
         self.screen
             .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
@@ -844,10 +895,13 @@ impl ProgressiveRenderer {
                 enc.clear_buffer(&state.color_keys, 0, None);
             }
             if reproject {
-                self.reproject
+                passes
+                    .reproject
                     .record(device, &mut enc, cloud, state, stamps(0));
             }
-            self.fill.record(device, &mut enc, cloud, state, stamps(2));
+            passes
+                .fill
+                .record(device, &mut enc, cloud, state, stamps(2));
             self.lookup.record(device, &mut enc, cloud, state, target);
             self.screen.record(
                 device,
@@ -857,7 +911,7 @@ impl ProgressiveRenderer {
                 &settings.screen,
                 stamps(4),
             );
-            self.prepare.record(device, &mut enc, state);
+            passes.prepare.record(device, &mut enc, cloud, state);
             if let Some(t) = target.timer.as_mut() {
                 t.resolve(&mut enc, frame, reproject);
             }

@@ -2,6 +2,7 @@
 
 use crate::context::Capabilities;
 use crate::shaders;
+use crate::splat::{self, SplatMode};
 use crate::storage::{point_group_layout, PointEncoding, PointStorage};
 use crate::target::RenderTarget;
 
@@ -215,8 +216,9 @@ impl RasterPipelines {
         variant: RasterVariant,
         encoding: PointEncoding,
         page_size: u32,
+        splats: SplatMode,
     ) -> Self {
-        Self::build(device, variant, encoding, page_size, false)
+        Self::build(device, variant, encoding, page_size, false, splats)
     }
 
     /// A closest-point variant keyed by point id instead of colour (progressive rendering's
@@ -227,8 +229,9 @@ impl RasterPipelines {
         variant: RasterVariant,
         encoding: PointEncoding,
         page_size: u32,
+        splats: SplatMode,
     ) -> Self {
-        Self::build(device, variant, encoding, page_size, true)
+        Self::build(device, variant, encoding, page_size, true, splats)
     }
 
     fn build(
@@ -237,6 +240,7 @@ impl RasterPipelines {
         encoding: PointEncoding,
         page_size: u32,
         index_keys: bool,
+        splats: SplatMode,
     ) -> Self {
         // The shuffled buffer of progressive rendering (always Full16) has empty slots.
         let skip_empty = index_keys && encoding == PointEncoding::Full16;
@@ -262,6 +266,7 @@ impl RasterPipelines {
                 });
                 let mut constants = vec![("WG", WORKGROUP as f64), ("PAGE_SIZE", page_size as f64)];
                 constants.extend_from_slice(consts);
+                constants.extend_from_slice(&splat::constants(splats));
                 if skip_empty {
                     constants.push(("SKIP_EMPTY", 1.0));
                 }
@@ -380,8 +385,19 @@ impl RasterPipelines {
 impl RasterPipelines {
     /// The pick passes: closest depth, then the id of the closest point per pixel (32-bit
     /// atomics only, so picking works on every adapter).
-    pub fn pick(device: &wgpu::Device, encoding: PointEncoding, page_size: u32) -> Self {
-        let mut p = Self::new(device, RasterVariant::AtomicMin32, encoding, page_size);
+    pub fn pick(
+        device: &wgpu::Device,
+        encoding: PointEncoding,
+        page_size: u32,
+        splats: SplatMode,
+    ) -> Self {
+        let mut p = Self::new(
+            device,
+            RasterVariant::AtomicMin32,
+            encoding,
+            page_size,
+            splats,
+        );
         let group0 = point_group_layout(device, encoding);
         let source = shaders::point_pass(encoding, shaders::RASTER_MIN32);
         let module = shaders::module(device, "pick", &source);
@@ -391,10 +407,13 @@ impl RasterPipelines {
             bind_group_layouts: &[Some(&group0), Some(&group1_layout)],
             immediate_size: 0,
         });
+        let [splats, circle] = splat::constants(splats);
         let constants = [
             ("WG", WORKGROUP as f64),
             ("PAGE_SIZE", page_size as f64),
             ("PICK", 1.0),
+            splats,
+            circle,
         ];
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("pick"),

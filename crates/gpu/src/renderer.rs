@@ -7,6 +7,7 @@ use crate::paged::{PagedCloud, PagedView};
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::reuse::TemporalReuse;
 use crate::screen::{ScreenPasses, ScreenSettings};
+use crate::splat::{SplatMode, SplatSettings};
 use crate::storage::PointEncoding;
 use crate::target::RenderTarget;
 use crate::GpuError;
@@ -20,6 +21,8 @@ pub struct RenderSettings {
     pub screen: ScreenSettings,
     /// One bit per ASPRS class (class c is bit c % 32 of word c / 32): set = not drawn.
     pub hidden_classes: [u32; 8],
+    /// Point size and shape.
+    pub splats: SplatSettings,
 }
 
 impl Default for RenderSettings {
@@ -28,6 +31,7 @@ impl Default for RenderSettings {
             variant: RasterVariant::ReduceEarlyZ,
             screen: ScreenSettings::default(),
             hidden_classes: [0; 8],
+            splats: SplatSettings::default(),
         }
     }
 }
@@ -45,6 +49,13 @@ impl RenderSettings {
     pub fn class_hidden(&self, class: u8) -> bool {
         self.hidden_classes[(class / 32) as usize] & (1 << (class % 32)) != 0
     }
+
+    /// True when more points can be drawn into a kept framebuffer later with the same result:
+    /// closest-point variants with splats whose size does not depend on how many points are
+    /// drawn (adaptive splats shrink as a still view adds points, so those frames redraw).
+    pub fn accumulates(&self) -> bool {
+        self.variant.accumulates() && !self.splats.is_adaptive()
+    }
 }
 
 /// GPU time of a frame's stages, from timestamp queries (upload and LoD are 0 for static
@@ -60,9 +71,9 @@ pub struct FrameTiming {
 
 /// Owns the pipelines (built on first use) for every variant and encoding drawn so far.
 pub struct Renderer {
-    raster: HashMap<(RasterVariant, PointEncoding, u32), RasterPipelines>,
+    raster: HashMap<(RasterVariant, PointEncoding, u32, SplatMode), RasterPipelines>,
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
-    pub(crate) pick: HashMap<(PointEncoding, u32), RasterPipelines>,
+    pub(crate) pick: HashMap<(PointEncoding, u32, SplatMode), RasterPipelines>,
     screen: ScreenPasses,
     /// Frames submitted so far (the ids timings carry).
     frames: u64,
@@ -86,6 +97,7 @@ impl Renderer {
     pub(crate) fn check(
         ctx: &GpuContext,
         variant: RasterVariant,
+        splats: &SplatSettings,
         camera: &Camera,
     ) -> Result<(), GpuError> {
         if let Some(why) = variant.unsupported_reason(&ctx.caps) {
@@ -94,6 +106,11 @@ impl Renderer {
                 why: why.to_string(),
                 adapter: ctx.describe(),
             });
+        }
+        if variant == RasterVariant::HwPoints && !splats.is_pixel() {
+            return Err(GpuError::InvalidInput(
+                "hw-points draws one-pixel points (the point-list baseline): larger points need a compute --raster".into(),
+            ));
         }
         camera
             .validate()
@@ -108,6 +125,7 @@ impl Renderer {
         variant: RasterVariant,
         encoding: PointEncoding,
         page_size: u32,
+        splats: SplatMode,
     ) -> Result<(), GpuError> {
         let device = &ctx.device;
         if variant == RasterVariant::HwPoints {
@@ -116,10 +134,12 @@ impl Renderer {
                     HwPointsPipeline::new(device, encoding, page_size)
                 })?);
             }
-        } else if let Entry::Vacant(slot) = self.raster.entry((variant, encoding, page_size)) {
+        } else if let Entry::Vacant(slot) =
+            self.raster.entry((variant, encoding, page_size, splats))
+        {
             slot.insert(ctx.checked(
                 &format!("building the {} pipelines", variant.name()),
-                || RasterPipelines::new(device, variant, encoding, page_size),
+                || RasterPipelines::new(device, variant, encoding, page_size, splats),
             )?);
         }
         Ok(())
@@ -135,13 +155,15 @@ impl Renderer {
         target: &mut RenderTarget,
     ) -> Result<(), GpuError> {
         let variant = settings.variant;
-        Self::check(ctx, variant, camera)?;
-        self.ensure_pipelines(ctx, variant, cloud.encoding, cloud.page_size)?;
+        let mode = settings.splats.mode();
+        Self::check(ctx, variant, &settings.splats, camera)?;
+        self.ensure_pipelines(ctx, variant, cloud.encoding, cloud.page_size, mode)?;
         cloud.prepare(
             ctx,
             camera,
             (target.width, target.height),
             &settings.hidden_classes,
+            &settings.splats,
         );
         self.screen
             .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
@@ -168,7 +190,7 @@ impl Renderer {
                 ctx,
                 &mut enc,
                 variant,
-                (cloud.encoding, cloud.page_size),
+                (cloud.encoding, cloud.page_size, mode),
                 &cloud.storage,
                 RasterDispatch::Direct,
                 target,
@@ -203,14 +225,16 @@ impl Renderer {
                 adapter: ctx.describe(),
             });
         }
-        Self::check(ctx, variant, camera)?;
-        self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size)?;
+        let mode = settings.splats.mode();
+        Self::check(ctx, variant, &settings.splats, camera)?;
+        self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size, mode)?;
         self.screen
             .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         // Only closest-point rasterizers are order independent and can add points to a kept
-        // framebuffer; HQS must see all points of a frame in both of its passes.
+        // framebuffer; HQS must see all points of a frame in both of its passes, and adaptive
+        // splats change size as points are added.
         let view = PagedView {
-            accumulate: view.accumulate && variant.accumulates(),
+            accumulate: view.accumulate && settings.accumulates(),
             ..*view
         };
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -228,14 +252,14 @@ impl Renderer {
             camera,
             (target.width, target.height),
             &view,
-            &settings.hidden_classes,
+            settings,
             timer.map(|t| &t.queries),
         )?;
         self.record_raster(
             ctx,
             &mut enc,
             variant,
-            (paged.encoding, paged.page_size),
+            (paged.encoding, paged.page_size, mode),
             &paged.storage,
             RasterDispatch::Indirect(&paged.indirect),
             target,
@@ -243,7 +267,7 @@ impl Renderer {
             stamps(2),
         );
         if let Some(reuse) = reuse {
-            if variant.accumulates() {
+            if settings.accumulates() {
                 let reprojected =
                     !view.accumulate && reuse.record_reproject(ctx, &mut enc, target, camera)?;
                 reuse.record_keep(ctx, &mut enc, target, camera, reprojected)?;
@@ -262,14 +286,14 @@ impl Renderer {
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
         variant: RasterVariant,
-        key: (PointEncoding, u32),
+        key: (PointEncoding, u32, SplatMode),
         storage: &crate::storage::PointStorage,
         dispatch: RasterDispatch<'_>,
         target: &RenderTarget,
         clear: bool,
         stamps: Stamps<'_>,
     ) {
-        let Some(pipes) = self.raster.get(&(variant, key.0, key.1)) else {
+        let Some(pipes) = self.raster.get(&(variant, key.0, key.1, key.2)) else {
             return;
         };
         let buffers = variant.buffers().buffers(target);

@@ -143,7 +143,8 @@ pub struct GpuDrawInfo {
     pub origin: [f32; 3],
     pub flags: u32,
     pub step: [f32; 3],
-    pub _pad: u32,
+    /// Surface spacing of the points drawn from here (adaptive splats; 0: unknown).
+    pub spacing: f32,
 }
 
 #[repr(C)]
@@ -163,6 +164,8 @@ pub(crate) struct GpuFrame {
     pub blend_factor: f32,
     pub any_hidden: u32,
     pub hidden_classes: [u32; 8],
+    /// Fixed side, adaptive scale, largest side, ring ratio (`SplatSettings::uniform`).
+    pub splat: [f32; 4],
 }
 
 #[repr(C)]
@@ -171,7 +174,7 @@ struct GpuDispatch {
     first_slot: u32,
     list_offset: u32,
     chunk: u32,
-    _pad: u32,
+    slots: u32,
 }
 
 /// Layout of bind group 0 for every point pass of an encoding; identical descriptors give
@@ -317,7 +320,7 @@ impl PointStorage {
                 first_slot,
                 list_offset: draw.list_offsets.get(chunk_index).copied().unwrap_or(0),
                 chunk: chunk_index as u32,
-                _pad: 0,
+                slots,
             };
             let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dispatch"),

@@ -166,6 +166,7 @@ fn settings(budget: u32, reproject: bool) -> ProgressiveSettings {
         reproject,
         screen: ScreenSettings::default(),
         hidden_classes: [0; 8],
+        splats: Default::default(),
     }
 }
 

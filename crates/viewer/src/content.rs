@@ -200,18 +200,8 @@ impl Content {
                 })
             }
             Content::Progressive(p) => {
-                if p.variant() != settings.variant {
-                    p.set_variant(ctx, settings.variant)
-                        .map_err(|e| ViewerError::Gpu(e.to_string()))?;
-                }
                 let report = p
-                    .frame(
-                        ctx,
-                        camera,
-                        &settings.screen,
-                        &settings.hidden_classes,
-                        target,
-                    )
+                    .frame(ctx, camera, settings, target)
                     .map_err(|e| ViewerError::Gpu(e.to_string()))?;
                 if let Some(f) = &report.failure {
                     // The points read before the damage stay on screen.

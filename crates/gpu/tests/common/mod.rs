@@ -107,23 +107,74 @@ pub fn render(
     screen: ScreenSettings,
     cam: &Camera,
 ) -> Vec<u8> {
+    let settings = RenderSettings {
+        variant,
+        screen,
+        ..Default::default()
+    };
+    render_with(ctx, set, encoding, &settings, cam)
+}
+
+pub fn render_with(
+    ctx: &GpuContext,
+    set: &PointSet,
+    encoding: PointEncoding,
+    settings: &RenderSettings,
+    cam: &Camera,
+) -> Vec<u8> {
     let mut cloud = GpuCloud::upload(ctx, set, encoding, 256).expect("upload");
     let mut target = RenderTarget::new(ctx, W, H).expect("target");
     let mut renderer = Renderer::new(ctx);
     renderer
-        .render(
-            ctx,
-            &mut cloud,
-            cam,
-            &RenderSettings {
-                variant,
-                screen,
-                ..Default::default()
-            },
-            &mut target,
-        )
+        .render(ctx, &mut cloud, cam, settings, &mut target)
         .expect("render");
     target.read_rgba(ctx).expect("readback")
+}
+
+/// Points for splat tests: a jittered grid every `step` pixels, each point's projection at the
+/// centre of a 1/256-pixel cell (the grid footprints are computed on, so f32 rounding on the
+/// GPU cannot move a footprint), one to three layers 3 % apart in depth, with `ties`
+/// duplicates of another colour; plus points half outside the image and behind the eye.
+pub fn splat_scene(seed: u64, step: u32, ties: bool) -> PointSet {
+    let cam = camera();
+    let mut rng = SplitMix64::new(seed);
+    let cell = |v: f64| ((v * 256.0).floor() + 0.5) / 256.0;
+    let mut groups: Vec<Vec<([f64; 3], u32)>> = Vec::new();
+    let margin = 2 * step as i64;
+    for y in (-margin..H as i64 + margin).step_by(step as usize) {
+        for x in (-margin..W as i64 + margin).step_by(step as usize) {
+            let u = cell(x as f64 + rng.unit_f64() * step as f64);
+            let v = cell(y as f64 + rng.unit_f64() * step as f64);
+            let base = 20.0 + rng.unit_f64() * 30.0;
+            for k in 0..1 + rng.below(3) {
+                let p = unproject(&cam, u, v, base * (1.0 + 0.03 * k as f64));
+                let mut group = vec![(p, (rng.next_u64() as u32) | 0xff00_0000)];
+                if ties && rng.below(5) == 0 {
+                    group.push((p, (rng.next_u64() as u32) | 0xff00_0000));
+                }
+                groups.push(group);
+            }
+        }
+    }
+    for _ in 0..200 {
+        let (u, v) = (rng.unit_f64() * W as f64, rng.unit_f64() * H as f64);
+        groups.push(vec![(unproject(&cam, u, v, -5.0), 0xff00_ff00)]);
+    }
+    pointlet_core::shuffle::shuffle(&mut groups, seed ^ 0x5eed);
+    let mut set = PointSet::default();
+    let filler = unproject(&cam, 1.0, 1.0, -1.0);
+    for g in groups {
+        // Duplicates stay inside one page: only there are they bit-identical on the GPU.
+        while set.len() % 256 + g.len() > 256 {
+            set.positions.push(filler);
+            set.colors.push(0);
+        }
+        for (p, c) in g {
+            set.positions.push(p);
+            set.colors.push(c);
+        }
+    }
+    set
 }
 
 /// Positions as the GPU sees them for `encoding` (compact points snap to their cells).

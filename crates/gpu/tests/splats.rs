@@ -1,0 +1,256 @@
+//! Splats against the CPU reference: fixed-size squares and circles drawn by every
+//! closest-point rasterizer must cover exactly the reference's pixels with exactly its colours;
+//! blended splats (HQS, HQS1R) stay within ±1 per channel.
+
+mod common;
+use common::*;
+use pointlet_gpu::reference;
+use pointlet_gpu::{
+    PointEncoding, PointSize, RasterVariant, RenderSettings, ScreenSettings, SplatSettings,
+    SplatShape,
+};
+
+const BLACK: [u8; 4] = [0, 0, 0, 255];
+
+const CLOSEST: [RasterVariant; 6] = [
+    RasterVariant::AtomicMin,
+    RasterVariant::EarlyZ,
+    RasterVariant::Reduce,
+    RasterVariant::ReduceEarlyZ,
+    RasterVariant::Dedup,
+    RasterVariant::AtomicMin32,
+];
+
+fn settings(variant: RasterVariant, size: PointSize, shape: SplatShape) -> RenderSettings {
+    RenderSettings {
+        variant,
+        splats: SplatSettings { size, shape },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn fixed_splats_match_the_reference_exactly() {
+    let ctx = context();
+    let cam = camera();
+    let set = splat_scene(11, 4, true);
+    for shape in SplatShape::ALL {
+        for px in [2u32, 3, 6] {
+            let splats = SplatSettings {
+                size: PointSize::Fixed(px),
+                shape,
+            };
+            for encoding in PointEncoding::ALL {
+                let drawn = drawn_positions(&ctx, &set, encoding, &cam);
+                let closest =
+                    reference::closest_splats(&drawn, &set.colors, 0.0, &cam, (W, H), &splats);
+                let colors: Vec<Option<u32>> = closest.iter().map(|p| p.map(|(_, c)| c)).collect();
+                let expected = reference::image(&colors, BLACK);
+                let lit = expected.chunks(4).filter(|p| *p != BLACK).count();
+                assert!(lit > 400, "splats cover much of the image: {lit}");
+                for variant in CLOSEST {
+                    let got = render_with(
+                        &ctx,
+                        &set,
+                        encoding,
+                        &settings(variant, splats.size, shape),
+                        &cam,
+                    );
+                    assert_eq!(
+                        diff(&got, &expected),
+                        (0, 0),
+                        "{} / {} / {px} px {}",
+                        variant.name(),
+                        encoding.name(),
+                        shape.name()
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_one_pixel_splat_is_the_one_pixel_point() {
+    // The same closest points as the point path, so `--point-size 1` changes nothing.
+    let ctx = context();
+    let cam = camera();
+    let set = splat_scene(12, 2, true);
+    let one = reference::closest_splats(
+        &set.positions,
+        &set.colors,
+        0.0,
+        &cam,
+        (W, H),
+        &SplatSettings::default(),
+    );
+    let points = reference::closest_points(&set.positions, &set.colors, &cam, W, H);
+    assert_eq!(one, points);
+    let got = render_with(
+        &ctx,
+        &set,
+        PointEncoding::Full16,
+        &RenderSettings::default(),
+        &cam,
+    );
+    let colors: Vec<Option<u32>> = points.iter().map(|p| p.map(|(_, c)| c)).collect();
+    assert_eq!(diff(&got, &reference::image(&colors, BLACK)), (0, 0));
+}
+
+/// A random `share` of a 0.4-unit grid on the square |x|, |y| ≤ 12 of the plane z = 0 (about
+/// a point per pixel where the test camera sees it).
+fn sampled_plane(share: f64, seed: u64) -> pointlet_gpu::PointSet {
+    let mut rng = pointlet_core::shuffle::SplitMix64::new(seed);
+    let mut set = pointlet_gpu::PointSet::default();
+    for i in 0..=60 {
+        for j in 0..=60 {
+            if rng.unit_f64() < share {
+                set.positions
+                    .push([-12.0 + 0.4 * i as f64, -12.0 + 0.4 * j as f64, 0.0]);
+                set.colors
+                    .push(0xff00_0000 | (rng.next_u64() as u32 & 0x00ff_ffff));
+            }
+        }
+    }
+    set
+}
+
+/// Pixels whose centre ray meets the square at least `inset` units inside its border.
+fn inside_plane(inset: f64) -> Vec<usize> {
+    let cam = camera();
+    let mut out = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            let near = unproject(&cam, x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            let dir: Vec<f64> = (0..3).map(|a| near[a] - cam.eye[a]).collect();
+            if dir[2] >= 0.0 {
+                continue;
+            }
+            let t = -cam.eye[2] / dir[2];
+            let hit = [cam.eye[0] + t * dir[0], cam.eye[1] + t * dir[1]];
+            if hit.iter().all(|v| v.abs() <= 12.0 - inset) {
+                out.push((y * W + x) as usize);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn adaptive_splats_close_a_randomly_thinned_surface() {
+    let ctx = context();
+    let cam = camera();
+    let inside = inside_plane(0.5);
+    assert!(
+        inside.len() > 200,
+        "the plane fills part of the view: {}",
+        inside.len()
+    );
+    let empty = |img: &[u8]| {
+        inside
+            .iter()
+            .filter(|i| img[*i * 4..*i * 4 + 4] == BLACK)
+            .count()
+    };
+    // A tenth and a third of the grid: a LoD's random prefixes of its pointlets.
+    for share in [0.1, 0.25] {
+        let set = sampled_plane(share, 16);
+        let one = render_with(
+            &ctx,
+            &set,
+            PointEncoding::Full16,
+            &RenderSettings::default(),
+            &cam,
+        );
+        for variant in [
+            RasterVariant::ReduceEarlyZ,
+            RasterVariant::AtomicMin32,
+            RasterVariant::Hqs,
+        ] {
+            let adaptive = RenderSettings {
+                variant,
+                splats: SplatSettings::adaptive(),
+                ..Default::default()
+            };
+            let got = render_with(&ctx, &set, PointEncoding::Full16, &adaptive, &cam);
+            assert!(
+                empty(&one) > inside.len() / 20,
+                "one-pixel points leave holes"
+            );
+            assert_eq!(
+                empty(&got),
+                0,
+                "{}: adaptive splats of {share} of the grid leave no hole",
+                variant.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn blended_splats_match_the_reference() {
+    let ctx = context();
+    let cam = camera();
+    let set = splat_scene(14, 3, false);
+    for shape in SplatShape::ALL {
+        let splats = SplatSettings {
+            size: PointSize::Fixed(4),
+            shape,
+        };
+        let avg = reference::blended_splats(
+            &set.positions,
+            &set.colors,
+            0.0,
+            &cam,
+            (W, H),
+            &splats,
+            1.01,
+        );
+        let expected = reference::image(&avg, BLACK);
+        for variant in [RasterVariant::Hqs, RasterVariant::Hqs1r] {
+            let got = render_with(
+                &ctx,
+                &set,
+                PointEncoding::Full16,
+                &RenderSettings {
+                    variant,
+                    screen: ScreenSettings::default(),
+                    splats,
+                    ..Default::default()
+                },
+                &cam,
+            );
+            let (max, n) = diff(&got, &expected);
+            assert!(
+                max <= 1,
+                "{} {}: {n} pixels differ, max {max}",
+                variant.name(),
+                shape.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn hw_points_refuse_larger_points() {
+    let ctx = context();
+    let set = splat_scene(15, 4, false);
+    let mut cloud =
+        pointlet_gpu::GpuCloud::upload(&ctx, &set, PointEncoding::Full16, 256).expect("upload");
+    let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+    let err = renderer
+        .render(
+            &ctx,
+            &mut cloud,
+            &camera(),
+            &settings(
+                RasterVariant::HwPoints,
+                PointSize::Fixed(3),
+                SplatShape::Square,
+            ),
+            &mut target,
+        )
+        .expect_err("hw-points draws one-pixel points");
+    assert!(err.to_string().contains("one-pixel"), "{err}");
+}
