@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use pointlet_core::path::CameraPath;
 use pointlet_core::Camera;
 use pointlet_engine::{FrameReport, VirtualScene};
-use pointlet_gpu::{GpuContext, RenderSettings, RenderTarget, Renderer};
+use pointlet_gpu::{GpuContext, PointSize, RenderSettings, RenderTarget, Renderer, SplatSettings};
 use pointlet_report::{FrameStats, Series, StageBreakdown};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -192,7 +192,7 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("opening {}", args.store.display()))?;
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = args.draw.settings(variant);
+    let settings = args.draw.settings_for(variant, Some(&args.store));
     let bounds = scene.bounds();
     if args.quality {
         return quality(
@@ -576,6 +576,8 @@ struct QualityRow {
     psnr_db: f64,
     /// Hole-filled LoD image vs hole-filled full detail.
     psnr_filled_db: f64,
+    /// LoD image with adaptive splats vs full detail with adaptive splats.
+    psnr_adaptive_db: f64,
 }
 
 fn quality(
@@ -601,6 +603,14 @@ fn quality(
         },
         ..*settings
     };
+    let adaptive = RenderSettings {
+        splats: SplatSettings {
+            size: PointSize::adaptive(),
+            ..settings.splats
+        },
+        ..plain
+    };
+    let columns = [&plain, &filled, &adaptive];
     let buckets: Vec<u64> = if args.buckets.is_empty() {
         [
             1_000_000u64,
@@ -621,33 +631,34 @@ fn quality(
         ("overview", Camera::overview(&bounds, 60.0)),
         ("closeup", Camera::closeup(&bounds, 60.0)),
     ] {
-        // Ground truth: full detail, once plain and once hole-filled (filling changes the truth
-        // too, so filled LoD images are compared with the filled truth).
+        // Ground truth: full detail, plain, hole-filled and with adaptive splats (filling and
+        // splats change the truth too, so each LoD image is compared with its own truth).
         scene.set_accumulation(true);
         let mut truth = Vec::new();
-        for s in [&plain, &filled] {
+        for s in columns {
             settle(ctx, scene, renderer, target, &camera, s, |r, _| r.converged)?;
             truth.push(target.read_rgba(ctx)?);
         }
         scene.set_accumulation(false);
         for b in &buckets {
             scene.set_bucket(*b as f64);
-            let mut psnr = [0.0; 2];
-            for (k, s) in [&plain, &filled].into_iter().enumerate() {
+            let mut psnr = [0.0; 3];
+            for (k, s) in columns.into_iter().enumerate() {
                 settle(ctx, scene, renderer, target, &camera, s, |_, quiet| {
                     quiet >= 8
                 })?;
                 psnr[k] = pointlet_report::psnr(&target.read_rgba(ctx)?, &truth[k])?;
             }
             println!(
-                "{view:<9} bucket {:>12}: PSNR {:>6.2} dB, with hole filling {:>6.2} dB",
-                b, psnr[0], psnr[1]
+                "{view:<9} bucket {:>12}: PSNR {:>6.2} dB, with hole filling {:>6.2} dB, with adaptive splats {:>6.2} dB",
+                b, psnr[0], psnr[1], psnr[2]
             );
             rows.push(QualityRow {
                 view,
                 bucket: *b,
                 psnr_db: psnr[0],
                 psnr_filled_db: psnr[1],
+                psnr_adaptive_db: psnr[2],
             });
         }
         scene.set_bucket(args.virtual_args.bucket as f64);

@@ -85,7 +85,7 @@ pub fn run(args: &Args) -> Result<()> {
     let bounds = scene.bounds();
     let flight = Flight::new(args, bounds)?;
     let (path, cameras) = (&flight.path, &flight.cameras);
-    let settings = args.draw.settings(variant);
+    let settings = args.draw.settings_for(variant, Some(file));
     let slots = scene.slots().max(1);
     let mut rows: Vec<Row> = Vec::with_capacity(cameras.len());
     let mut first_frame_s = None;

@@ -95,6 +95,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
         }
         Command::Bench(a) if !crate::load::is_store_path(&a.store) || a.draw.progressive => {
             progressive_flag(given, Some(&a.store), &a.draw)?;
+            point_size(given, Some(&a.store), &a.draw)?;
             if crate::load::is_store_path(&a.store) {
                 given.refuse(&READING, "point files", "a store")?;
             }
@@ -119,6 +120,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
         }
         Command::Bench(a) => {
             store_drawing(given, a.draw.raster)?;
+            point_size(given, Some(&a.store), &a.draw)?;
             given.refuse(&READING, "point files", "a store")?;
             given.refuse(&PROGRESSIVE, "point files", "a store")?;
             if a.quality {
@@ -232,6 +234,7 @@ fn drawing(
         given.refuse(&["demo_points"], "the demo scene (without INPUT)", kind)?;
     }
     progressive_flag(given, input, draw)?;
+    point_size(given, input, draw)?;
     match input {
         Some(p) if crate::load::is_store_path(p) && !draw.progressive => {
             given.refuse(&READING, "point files", kind)?;
@@ -262,6 +265,25 @@ fn drawing(
             given.refuse(&both, "stores and point files drawn while they load", kind)
         }
     }
+}
+
+/// `--point-size` beyond one pixel needs a compute rasterizer; `--splat-shape` needs points
+/// larger than a pixel.
+fn point_size(given: &Given, input: Option<&Path>, draw: &DrawArgs) -> Result<(), String> {
+    let splats = draw.splats_for(input);
+    if draw.raster == RasterVariant::HwPoints && !splats.is_pixel() {
+        return Err(format!(
+            "--raster hw-points draws one-pixel points (the point-list baseline), not --point-size {}: larger points need a compute --raster",
+            splats.size.name()
+        ));
+    }
+    if given.has("splat_shape") && splats.is_pixel() {
+        return Err(
+            "--splat-shape applies to points larger than a pixel (--point-size 2–32 or adaptive)"
+                .into(),
+        );
+    }
+    Ok(())
 }
 
 /// A store is drawn by the virtualized renderer: compute rasterizers, its own order and pages.

@@ -115,7 +115,7 @@ pub fn render(args: &crate::render_cmd::Args, path: &Path) -> Result<()> {
     let started = Instant::now();
     let mut scene = open(&ctx, path, config)?;
     let camera = args.camera.camera(&scene.bounds())?;
-    let settings = args.draw.settings(variant);
+    let settings = args.draw.settings_for(variant, Some(path));
     let mut noted = false;
     let mut last = None;
     for _ in 0..args.max_frames {

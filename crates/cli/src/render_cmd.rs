@@ -104,7 +104,7 @@ pub fn run(args: Args) -> Result<()> {
     drop(set);
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = args.draw.settings(variant);
+    let settings = args.draw.settings_for(variant, args.input.as_deref());
     renderer.render(&ctx, &mut cloud, &camera, &settings, &mut target)?;
     let rgba = target.read_rgba(&ctx)?;
     let timing = renderer.timing(&ctx, &mut target)?;
@@ -141,7 +141,7 @@ fn render_store(args: &Args, path: &std::path::Path) -> Result<()> {
             .with_context(|| format!("opening {}", path.display()))?;
     let camera = args.camera.camera(&scene.bounds())?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = args.draw.settings(variant);
+    let settings = args.draw.settings_for(variant, Some(path));
     if args.no_converge {
         scene.set_accumulation(false);
     }

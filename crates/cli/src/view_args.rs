@@ -8,6 +8,7 @@ use pointlet_gpu::{
     EdlSettings, OcclusionSettings, PointEncoding, PointSize, RasterVariant, RenderSettings,
     ScreenSettings, SplatSettings, SplatShape,
 };
+use std::path::Path;
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct CameraArgs {
@@ -116,17 +117,19 @@ pub struct DrawArgs {
 
 impl DrawArgs {
     /// The renderer's settings for `variant` (the resolved `--raster`) and these screen passes.
-    pub fn settings(&self, variant: RasterVariant) -> RenderSettings {
+    /// The renderer's settings for `variant` (the resolved `--raster`) drawing `input`.
+    pub fn settings_for(&self, variant: RasterVariant, input: Option<&Path>) -> RenderSettings {
         RenderSettings {
             variant,
             screen: self.screen(),
-            splats: self.splats(),
+            splats: self.splats_for(input),
             ..Default::default()
         }
     }
 
-    /// Point size and shape: `--point-size` (default one pixel) and `--splat-shape`.
-    pub fn splats(&self) -> SplatSettings {
+    /// Point size and shape for `input`: `--point-size` (default one pixel) and
+    /// `--splat-shape`.
+    pub fn splats_for(&self, _input: Option<&Path>) -> SplatSettings {
         SplatSettings {
             size: self.point_size.unwrap_or(PointSize::Fixed(1)),
             shape: self.splat_shape,

@@ -100,7 +100,9 @@ pub fn run(args: Args) -> Result<()> {
         input,
         camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
         size: (args.width, args.height),
-        settings: args.draw.settings(args.draw.raster),
+        settings: args
+            .draw
+            .settings_for(args.draw.raster, args.input.as_deref()),
         color,
         encoding: args.draw.encoding,
         page_size: args.draw.page_size,

@@ -499,7 +499,7 @@ impl VirtualScene {
         // frame's new points to the kept framebuffer; the others (HQS) redraw every resident
         // point each frame, so their requests must fit the pool at once.
         let refine = still && !recoloured && self.accumulation;
-        let accumulate = refine && settings.variant.accumulates();
+        let accumulate = refine && settings.accumulates();
         if refine {
             self.still_frames += 1;
             if self.accumulating_since.is_none() {

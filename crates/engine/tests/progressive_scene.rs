@@ -19,8 +19,8 @@ use pointlet_engine::progressive::LoadConfig;
 use pointlet_engine::{FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene};
 use pointlet_gpu::progressive::ProgressiveTiming;
 use pointlet_gpu::{
-    GpuCloud, GpuContext, PointEncoding, PointSet, RasterVariant, RenderSettings, RenderTarget,
-    Renderer,
+    GpuCloud, GpuContext, PointEncoding, PointSet, PointSize, RasterVariant, RenderSettings,
+    RenderTarget, Renderer, SplatSettings, SplatShape,
 };
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::writer::{LasWriter, LasWriterConfig};
@@ -192,9 +192,21 @@ fn frame(
     camera: &Camera,
     target: &mut RenderTarget,
 ) -> ProgressiveReport {
-    scene
-        .frame(ctx, camera, &settings_of(scene), target)
-        .unwrap()
+    frame_with(ctx, scene, camera, &SplatSettings::default(), target)
+}
+
+fn frame_with(
+    ctx: &GpuContext,
+    scene: &mut ProgressiveScene,
+    camera: &Camera,
+    splats: &SplatSettings,
+    target: &mut RenderTarget,
+) -> ProgressiveReport {
+    let settings = RenderSettings {
+        splats: *splats,
+        ..settings_of(scene)
+    };
+    scene.frame(ctx, camera, &settings, target).unwrap()
 }
 
 /// Frames of `camera` until the scene says the image is final; the frames it took.
@@ -204,10 +216,20 @@ fn converge(
     camera: &Camera,
     target: &mut RenderTarget,
 ) -> u64 {
+    converge_with(ctx, scene, camera, &SplatSettings::default(), target)
+}
+
+fn converge_with(
+    ctx: &GpuContext,
+    scene: &mut ProgressiveScene,
+    camera: &Camera,
+    splats: &SplatSettings,
+    target: &mut RenderTarget,
+) -> u64 {
     let give_up = Instant::now() + Duration::from_secs(120);
     let mut frames = 0;
     loop {
-        let r = frame(ctx, scene, camera, target);
+        let r = frame_with(ctx, scene, camera, splats, target);
         frames += 1;
         assert!(r.failure.is_none(), "{:?}", r.failure);
         if r.converged {
@@ -226,6 +248,17 @@ fn static_image(
     variant: RasterVariant,
     camera: &Camera,
 ) -> Image {
+    static_image_with(ctx, path, scene, variant, &SplatSettings::default(), camera)
+}
+
+fn static_image_with(
+    ctx: &GpuContext,
+    path: &Path,
+    scene: &ProgressiveScene,
+    variant: RasterVariant,
+    splats: &SplatSettings,
+    camera: &Camera,
+) -> Image {
     let scale = scene.color().expect("colouring chosen").scale;
     let mut reader = pointlet_engine::open_points(path, &Default::default()).unwrap();
     let mut set = PointSet::default();
@@ -239,6 +272,7 @@ fn static_image(
     let mut target = RenderTarget::new(ctx, W, H).unwrap();
     let settings = RenderSettings {
         variant,
+        splats: *splats,
         ..Default::default()
     };
     Renderer::new(ctx)
@@ -302,6 +336,42 @@ fn a_still_camera_converges_to_drawing_every_point_for_every_file_kind() {
             let differ = differing(&got.rgba, &want.rgba);
             assert!(differ == 0, "{name}: {differ} pixels differ in colour");
         }
+    }
+}
+
+#[test]
+fn fixed_splats_converge_to_drawing_every_point_as_splats() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let splats = SplatSettings {
+        size: PointSize::Fixed(3),
+        shape: SplatShape::Square,
+    };
+    let path = files(dir.path()).swap_remove(0);
+    for variant in [
+        RasterVariant::AtomicMin,
+        RasterVariant::ReduceEarlyZ.fallback(&ctx.caps),
+    ] {
+        let mut scene = ProgressiveScene::open(&ctx, &path, config(variant, 7_777)).unwrap();
+        let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+        for _ in 0..3 {
+            frame_with(&ctx, &mut scene, &moved(), &splats, &mut target);
+        }
+        converge_with(&ctx, &mut scene, &camera(), &splats, &mut target);
+        let got = target.read_rgba(&ctx).unwrap();
+        let want = static_image_with(&ctx, &path, &scene, variant, &splats, &camera());
+        assert!(
+            lit(&want.rgba) > lit(&static_image(&ctx, &path, &scene, variant, &camera()).rgba),
+            "splats cover more than points"
+        );
+        let differ = differing(&got, &want.rgba);
+        assert!(
+            differ == 0,
+            "{}: {differ} pixels differ (lit {} vs {})",
+            variant.name(),
+            lit(&got),
+            lit(&want.rgba)
+        );
     }
 }
 

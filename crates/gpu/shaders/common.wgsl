@@ -220,6 +220,12 @@ fn splat_pixel(s: Splat, k: u32) -> SplatPixel {
     return out;
 }
 
+// The colour word a splat's pixels carry: RGB, and in the alpha byte (the class, no longer
+// needed once drawn) the splat's side, so the screen passes know the splat sizes (EDL on splats).
+fn splat_color_word(color: u32, s: Splat) -> u32 {
+    return (color & 0x00ffffffu) | (s.side << 24u);
+}
+
 // The inverted depth word of a splat pixel: its tier bit cleared in the ring.
 fn tier_depth(inv_depth: u32, ring: bool) -> u32 {
     return select(inv_depth, inv_depth & ~TIER_BIT, ring);

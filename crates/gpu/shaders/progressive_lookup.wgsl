@@ -5,7 +5,7 @@
 // slot lies in its chunk; empty pixels stay 0 (the colour keys are cleared first). Where the
 // colour keys the Fill and Reproject passes kept (color_keys_kept.wgsl) are at the same depth,
 // their colour wins: among points at exactly the closest depth, the smaller colour, as in the
-// static path.
+// static path. SPLATS: the colour carries the splat's side (splat_color_word).
 
 override PAGE_SIZE: u32 = 4096u;
 
@@ -32,6 +32,9 @@ fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
     let kept = color_keys[pixel];
     if (kept & 0xffffffff00000000lu) == depth {
         keys[pixel] = kept;
+    } else if SPLATS {
+        let s = project_splat(load_position(infos[0], slot - first), infos[0].spacing);
+        keys[pixel] = depth | u64(~splat_color_word(load_color(slot - first), s));
     } else {
         keys[pixel] = depth | u64(~load_color(slot - first));
     }

@@ -16,6 +16,8 @@ override PAGE_SIZE: u32 = 4096u;
 // Entries of `list` (the Prepare pass's counter).
 @group(1) @binding(2) var<storage, read_write> list_len: array<u32>;
 @group(1) @binding(3) var<storage, read_write> color_keys: array<atomic<u64>>;
+// SPLATS: the Prepare pass's bit per listed slot, cleared here for the next Prepare.
+@group(1) @binding(4) var<storage, read_write> listed: array<atomic<u32>>;
 
 @compute @workgroup_size(WG)
 fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -31,6 +33,7 @@ fn reproject(@builtin(global_invocation_id) gid: vec3<u32>,
     let first = dispatch.first_slot * PAGE_SIZE;
     let index = slot - first;
     if SPLATS {
+        atomicAnd(&listed[slot >> 5u], ~(1u << (slot & 31u)));
         reproject_splat(slot, index);
         return;
     }
@@ -63,6 +66,6 @@ fn reproject_splat(slot: u32, index: u32) {
         }
         let high = u64(tier_depth(~s.depth_bits, px.ring)) << 32u;
         atomicMax(&framebuffer[px.pixel], high | u64(~slot));
-        atomicMax(&color_keys[px.pixel], high | u64(~color));
+        atomicMax(&color_keys[px.pixel], high | u64(~splat_color_word(color, s)));
     }
 }

@@ -57,7 +57,7 @@ fn splat_color(w: Work, i: u32) {
             if class_hidden(color) {
                 return;
             }
-            value = select(color, w.slot * PAGE_SIZE + i, PICK);
+            value = select(splat_color_word(color, s), w.slot * PAGE_SIZE + i, PICK);
             fetched = true;
         }
         atomicMax(&color_buffer[px.pixel], ~value);

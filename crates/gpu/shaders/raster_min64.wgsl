@@ -74,8 +74,9 @@ fn draw_splat(w: Work, i: u32) {
                 return;
             }
         }
-        let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+        let shown = splat_color_word(color, s);
+        let low = select(shown, w.slot * PAGE_SIZE + i, INDEX_KEYS);
         atomicMax(&framebuffer[px.pixel], (u64(inv) << 32u) | u64(~low));
-        keep_color_key(px.pixel, (u64(inv) << 32u) | u64(~color));
+        keep_color_key(px.pixel, (u64(inv) << 32u) | u64(~shown));
     }
 }

@@ -71,6 +71,7 @@ fn raster_splat(w: Work, i: u32) {
         if s.valid {
             color = load_color(w.base + i);
             s.valid = !class_hidden(color);
+            color = splat_color_word(color, s);
         }
     }
     let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);

@@ -58,6 +58,10 @@ pub struct ProgressiveCloud {
     entry_stride: u32,
     /// Surface spacing of the points in the buffer, for adaptive splats (0: unknown).
     spacing: f64,
+    /// One bit per slot: listed by this frame's Prepare pass (splats win many pixels but are
+    /// listed once), allocated on the first frame of splats; a placeholder until then.
+    listed: std::cell::OnceCell<wgpu::Buffer>,
+    no_list_bits: wgpu::Buffer,
 }
 
 impl ProgressiveCloud {
@@ -143,6 +147,8 @@ impl ProgressiveCloud {
             fill_args,
             entry_stride,
             spacing: 0.0,
+            listed: std::cell::OnceCell::new(),
+            no_list_bits: buffer("no listed bits", 16, storage_usage)?,
         })
     }
 
@@ -189,6 +195,30 @@ impl ProgressiveCloud {
         Ok(Some(std::array::from_fn(|a| {
             self.origin[a] + f32::from_bits(words[a]) as f64
         })))
+    }
+
+    /// The listed-slot bits for frames of `splats` (allocated zeroed on first use).
+    fn listed_bits(&self, ctx: &GpuContext, splats: bool) -> Result<&wgpu::Buffer, GpuError> {
+        if !splats {
+            return Ok(&self.no_list_bits);
+        }
+        if let Some(b) = self.listed.get() {
+            return Ok(b);
+        }
+        let bytes = (self.storage.chunks.len() as u64
+            * self.storage.slots_per_chunk as u64
+            * self.page_size as u64)
+            .div_ceil(32)
+            * 4;
+        let buffer = ctx.checked("allocating the listed-slot bits", || {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("listed slots"),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        Ok(self.listed.get_or_init(|| buffer))
     }
 
     /// Sets the surface spacing of the points in the buffer (adaptive splats are sized from
@@ -530,7 +560,7 @@ impl ReprojectPass {
             "reproject",
             shaders::PROGRESSIVE_REPROJECT,
             "reproject",
-            4,
+            5,
             &[
                 ("WG", WORKGROUP as f64),
                 ("PAGE_SIZE", page_size as f64),
@@ -547,6 +577,7 @@ impl ReprojectPass {
         enc: &mut wgpu::CommandEncoder,
         cloud: &ProgressiveCloud,
         state: &ProgressiveState,
+        listed: &wgpu::Buffer,
         stamps: Stamps<'_>,
     ) {
         let group1 = storage_group(
@@ -558,6 +589,7 @@ impl ReprojectPass {
                 &state.list,
                 &state.list_len,
                 &state.color_keys,
+                listed,
             ],
         );
         // One thread per possible entry: the list holds at most one slot per pixel.
@@ -623,14 +655,15 @@ struct LookupPass {
 }
 
 impl LookupPass {
-    fn new(device: &wgpu::Device, page_size: u32) -> Self {
+    fn new(device: &wgpu::Device, page_size: u32, splats: SplatMode) -> Self {
+        let [splat, circle] = splat::constants(splats);
         let (pipeline, group1) = point_pipeline(
             device,
             "colour lookup",
             shaders::PROGRESSIVE_LOOKUP,
             "lookup",
             3,
-            &[("PAGE_SIZE", page_size as f64)],
+            &[("PAGE_SIZE", page_size as f64), splat, circle],
         );
         Self { pipeline, group1 }
     }
@@ -678,7 +711,7 @@ impl PreparePass {
             "prepare",
             shaders::PROGRESSIVE_PREPARE,
             "prepare",
-            3,
+            4,
             &[("PAGE_SIZE", page_size as f64), splat, circle],
         );
         Self { pipeline, group1 }
@@ -690,13 +723,14 @@ impl PreparePass {
         enc: &mut wgpu::CommandEncoder,
         cloud: &ProgressiveCloud,
         state: &ProgressiveState,
+        listed: &wgpu::Buffer,
     ) {
         enc.clear_buffer(&state.list_len, 0, None);
         let group1 = storage_group(
             device,
             "prepare",
             &self.group1,
-            &[&state.indexed, &state.list, &state.list_len],
+            &[&state.indexed, &state.list, &state.list_len, listed],
         );
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("prepare"),
@@ -715,6 +749,7 @@ impl PreparePass {
 struct PointPasses {
     reproject: ReprojectPass,
     fill: FillPass,
+    lookup: LookupPass,
     prepare: PreparePass,
 }
 
@@ -739,7 +774,6 @@ pub struct ProgressiveRenderer {
     page_size: u32,
     /// Built on first use of each splat mode.
     points: HashMap<SplatMode, PointPasses>,
-    lookup: LookupPass,
     screen: ScreenPasses,
     /// Frames submitted so far (the ids timings carry).
     frames: u64,
@@ -787,7 +821,6 @@ impl ProgressiveRenderer {
             variant,
             page_size,
             points: HashMap::new(),
-            lookup: LookupPass::new(device, page_size),
             screen: ScreenPasses::new(device),
             frames: 0,
             in_flight: std::collections::VecDeque::new(),
@@ -851,6 +884,7 @@ impl ProgressiveRenderer {
                 ctx.checked("building the progressive passes", || PointPasses {
                     reproject: ReprojectPass::new(device, page_size, mode),
                     fill: FillPass::new(device, variant, page_size, mode),
+                    lookup: LookupPass::new(device, page_size, mode),
                     prepare: PreparePass::new(device, page_size, mode),
                 })?,
             );
@@ -879,6 +913,7 @@ impl ProgressiveRenderer {
         self.frames += 1;
         let frame = self.frames;
         let reproject = settings.reproject && state.has_list;
+        let listed = cloud.listed_bits(ctx, !settings.splats.is_pixel())?;
         let submission = ctx.checked("rendering a progressive frame", || {
             let mut enc = device.create_command_encoder(&Default::default());
             let timer = target.timer.as_ref();
@@ -890,6 +925,10 @@ impl ProgressiveRenderer {
                 })
             };
             enc.clear_buffer(&state.indexed, 0, None);
+            // Reproject clears the bits of the slots it draws; without it, some may be left.
+            if !reproject {
+                enc.clear_buffer(listed, 0, None);
+            }
             // Kept over frames while the view stays still; else this frame's own.
             if !(reproject && state.color_keys_kept) {
                 enc.clear_buffer(&state.color_keys, 0, None);
@@ -897,21 +936,24 @@ impl ProgressiveRenderer {
             if reproject {
                 passes
                     .reproject
-                    .record(device, &mut enc, cloud, state, stamps(0));
+                    .record(device, &mut enc, cloud, state, listed, stamps(0));
             }
             passes
                 .fill
                 .record(device, &mut enc, cloud, state, stamps(2));
-            self.lookup.record(device, &mut enc, cloud, state, target);
+            passes.lookup.record(device, &mut enc, cloud, state, target);
             self.screen.record(
                 device,
                 &mut enc,
                 target,
                 PixelKind::Key64,
+                !settings.splats.is_pixel(),
                 &settings.screen,
                 stamps(4),
             );
-            passes.prepare.record(device, &mut enc, cloud, state);
+            passes
+                .prepare
+                .record(device, &mut enc, cloud, state, listed);
             if let Some(t) = target.timer.as_mut() {
                 t.resolve(&mut enc, frame, reproject);
             }

@@ -136,6 +136,12 @@ pub(crate) enum PixelKind {
 }
 
 impl PixelKind {
+    /// Closest-point buffers keep a colour word per pixel, whose alpha byte holds the splat
+    /// side when splats are drawn (blending sums colours and keeps none).
+    pub fn carries_splat_sizes(self) -> bool {
+        matches!(self, PixelKind::Key64 | PixelKind::TwoPass32)
+    }
+
     /// The buffers of group 1, in binding order.
     pub fn buffers(self, target: &RenderTarget) -> Vec<&wgpu::Buffer> {
         let p = &target.pixels;

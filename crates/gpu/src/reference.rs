@@ -228,7 +228,8 @@ fn tiered(depth: f32, ring: bool) -> u32 {
     }
 }
 
-/// Closest splat per pixel: (view depth, RGBA); on equal depth and tier the smaller RGBA.
+/// Closest splat per pixel: (view depth, colour word: RGB and the splat's side in the alpha
+/// byte); on equal depth and tier the smaller word.
 /// `spacing` is each point's surface spacing (adaptive splats).
 pub fn closest_splats(
     positions: &[[f64; 3]],
@@ -245,8 +246,10 @@ pub fn closest_splats(
         let Some(s) = splat_with(&vp, width, height, *p, spacing, uniform) else {
             continue;
         };
+        // The colour word carries the splat's side in its alpha byte (common.wgsl).
+        let shown = (*c & 0x00ff_ffff) | s.side << 24;
         for (i, ring) in splat_pixels(&s, splats.shape, width, height) {
-            let key = (tiered(s.depth, ring), !*c);
+            let key = (tiered(s.depth, ring), !shown);
             if best[i].is_none_or(|(inv, nc, _)| key > (inv, nc)) {
                 best[i] = Some((key.0, key.1, s.depth));
             }

@@ -198,7 +198,7 @@ impl Renderer {
                 stamps(2),
             );
         }
-        self.finish_frame(ctx, enc, target, variant, &settings.screen, false)
+        self.finish_frame(ctx, enc, target, settings, false)
     }
 
     /// Records and submits one frame of a paged (virtualized) cloud: the GPU LoD picks each
@@ -275,7 +275,7 @@ impl Renderer {
                 reuse.forget();
             }
         }
-        self.finish_frame(ctx, enc, target, variant, &settings.screen, true)?;
+        self.finish_frame(ctx, enc, target, settings, true)?;
         paged.after_submit();
         Ok(())
     }
@@ -314,10 +314,10 @@ impl Renderer {
         ctx: &GpuContext,
         mut enc: wgpu::CommandEncoder,
         target: &mut RenderTarget,
-        variant: RasterVariant,
-        screen: &ScreenSettings,
+        settings: &RenderSettings,
         had_lod: bool,
     ) -> Result<(), GpuError> {
+        let kind = settings.variant.buffers();
         let device = &ctx.device;
         let screen_passes = &mut self.screen;
         self.frames += 1;
@@ -336,8 +336,9 @@ impl Renderer {
                 device,
                 &mut enc,
                 target_ref,
-                variant.buffers(),
-                screen,
+                kind,
+                kind.carries_splat_sizes() && !settings.splats.is_pixel(),
+                &settings.screen,
                 stamps,
             );
             if let Some(t) = target.timer.as_mut() {

@@ -72,7 +72,8 @@ struct ComposeUniform {
     background: [f32; 4],
     strength: f32,
     radius: f32,
-    _pad: [f32; 2],
+    focal_px: f32,
+    _pad: f32,
 }
 
 enum Binding {
@@ -121,6 +122,17 @@ fn pipeline(
     entry: &str,
     groups: &[&wgpu::BindGroupLayout],
 ) -> wgpu::ComputePipeline {
+    pipeline_with(device, label, source, entry, groups, &[])
+}
+
+fn pipeline_with(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+    entry: &str,
+    groups: &[&wgpu::BindGroupLayout],
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
     let module = shaders::module(device, label, source);
     let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -133,14 +145,18 @@ fn pipeline(
         layout: Some(&layout),
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     })
 }
 
 pub(crate) struct ScreenPasses {
     resolve_out_layout: wgpu::BindGroupLayout,
-    resolve: HashMap<PixelKind, (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    /// Per pixel kind, and whether colours carry splat sizes.
+    resolve: HashMap<(PixelKind, bool), (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     fill_layout: wgpu::BindGroupLayout,
     fill: wgpu::ComputePipeline,
     occlusion: wgpu::ComputePipeline,
@@ -249,6 +265,7 @@ impl ScreenPasses {
         &mut self,
         device: &wgpu::Device,
         kind: PixelKind,
+        splat_sizes: bool,
     ) -> Option<&(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
         let body = match kind {
             PixelKind::Hardware => return None,
@@ -258,19 +275,20 @@ impl ScreenPasses {
             PixelKind::Hqs1r => shaders::RESOLVE_HQS1R,
         };
         let out = &self.resolve_out_layout;
-        Some(self.resolve.entry(kind).or_insert_with(|| {
+        Some(self.resolve.entry((kind, splat_sizes)).or_insert_with(|| {
             let n = match kind {
                 PixelKind::Key64 => 1,
                 PixelKind::Hqs1r => 3,
                 _ => 2,
             };
             let group1 = storage_layout(device, n, true);
-            let p = pipeline(
+            let p = pipeline_with(
                 device,
                 "resolve",
                 &shaders::resolve_pass(body),
                 "resolve",
                 &[out, &group1],
+                &[("SPLAT_SIZES", splat_sizes as u32 as f64)],
             );
             (p, group1)
         }))
@@ -301,7 +319,8 @@ impl ScreenPasses {
             background: s.background,
             strength: edl.strength,
             radius: edl.radius,
-            _pad: [0.0; 2],
+            focal_px: (0.5 * target.height as f64 / (fov_y_deg.to_radians() * 0.5).tan()) as f32,
+            _pad: 0.0,
         };
         queue.write_buffer(&self.uniforms, SCREEN_OFFSET, bytemuck::bytes_of(&screen));
         queue.write_buffer(&self.uniforms, FILL_OFFSET, bytemuck::bytes_of(&fill));
@@ -337,12 +356,13 @@ impl ScreenPasses {
         enc: &mut wgpu::CommandEncoder,
         target: &RenderTarget,
         kind: PixelKind,
+        splat_sizes: bool,
         settings: &ScreenSettings,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let a = &target.layers[0];
-        let resolve_pipeline = self.resolve_pipeline(device, kind).cloned();
+        let resolve_pipeline = self.resolve_pipeline(device, kind, splat_sizes).cloned();
         let resolve = resolve_pipeline.map(|(p, g1)| {
             let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("resolve output"),
