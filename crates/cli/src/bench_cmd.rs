@@ -158,6 +158,8 @@ struct Summary<'a> {
     request_drawn: f64,
     stats: &'a FrameStats,
     stages: &'a [pointlet_report::StageSummary],
+    /// Mean CPU time per frame of the render graph besides its passes.
+    graph_overhead_ms: f64,
     frames: &'a [FrameRow],
 }
 
@@ -225,6 +227,7 @@ pub fn run(args: Args) -> Result<()> {
         ctx.wait()?;
         renderer.poll_timings(&ctx, &mut target);
     }
+    renderer.take_graph_overhead();
     let mut rows: Vec<FrameRow> = Vec::with_capacity(cameras.len());
     let mut read_before = 0u64;
     let began = Instant::now();
@@ -265,6 +268,10 @@ pub fn run(args: Args) -> Result<()> {
     );
     let times: Vec<f64> = rows.iter().map(|r| r.frame_ms.max(1e-6)).collect();
     let stats = FrameStats::from_frame_times_ms(&times)?;
+    let graph_ms = renderer
+        .take_graph_overhead()
+        .map_or(0.0, |d| d.as_secs_f64() * 1e3);
+    let graphs = renderer.frame_graphs();
     let mut stages = StageBreakdown::new([
         "handoff (render)",
         "residency (thread)",
@@ -296,6 +303,24 @@ pub fn run(args: Args) -> Result<()> {
         ctx.describe()
     );
     println!("{stats}");
+    let mean_ms = times.iter().sum::<f64>() / times.len().max(1) as f64;
+    println!(
+        "render graph: {:.1} µs of CPU per frame besides its passes ({:.2} % of the mean frame)",
+        graph_ms * 1e3,
+        graph_ms / mean_ms.max(1e-9) * 100.0
+    );
+    for g in &graphs {
+        println!(
+            "  passes {}{}; transients {} B/pixel",
+            g.passes.join(" → "),
+            if g.culled.is_empty() {
+                String::new()
+            } else {
+                format!(" (culled: {})", g.culled.join(", "))
+            },
+            g.transient_bytes_per_pixel
+        );
+    }
     println!("stage breakdown (ms per frame):");
     for s in &stage_table {
         println!(
@@ -357,6 +382,7 @@ pub fn run(args: Args) -> Result<()> {
             ram_peak: cache.ram_peak,
             stats: &stats,
             stages: &stage_table,
+            graph_overhead_ms: graph_ms,
             frames: &rows,
         };
         std::fs::write(p, serde_json::to_string_pretty(&summary)?)

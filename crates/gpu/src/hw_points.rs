@@ -4,7 +4,7 @@
 use crate::cloud::GpuCloud;
 use crate::shaders;
 use crate::storage::{point_group_layout, PointEncoding};
-use crate::target::{RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::target::{Layer, COLOR_FORMAT, DEPTH_FORMAT};
 
 pub(crate) struct HwPointsPipeline {
     pipeline: wgpu::RenderPipeline,
@@ -89,16 +89,18 @@ impl HwPointsPipeline {
         Self { pipeline }
     }
 
+    /// Draws `cloud` into `layer`, with `depth_attachment` for the hardware depth test.
     pub fn record(
         &self,
         enc: &mut wgpu::CommandEncoder,
         cloud: &GpuCloud,
-        target: &RenderTarget,
+        layer: &Layer,
+        depth_attachment: &wgpu::Texture,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let color = target.layers[0].color.create_view(&Default::default());
-        let depth = target.layers[0].depth.create_view(&Default::default());
-        let hw_depth = target.hw_depth.create_view(&Default::default());
+        let color = layer.color.create_view(&Default::default());
+        let depth = layer.depth.create_view(&Default::default());
+        let hw_depth = depth_attachment.create_view(&Default::default());
         let clear = |view| {
             Some(wgpu::RenderPassColorAttachment {
                 view,

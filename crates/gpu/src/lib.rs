@@ -5,6 +5,8 @@
 mod bandwidth;
 mod cloud;
 mod context;
+mod frame;
+mod graph;
 mod hw_points;
 mod paged;
 mod pick;
@@ -24,6 +26,7 @@ mod upload;
 pub use bandwidth::copy_bandwidth;
 pub use cloud::{GpuCloud, PageMeta, PointSet};
 pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
+pub use frame::FrameGraphSummary;
 pub use paged::{gammas, LodFeedback, PagedCloud, PagedView, PointletDesc};
 pub use pick::PickHit;
 pub use raster::RasterVariant;

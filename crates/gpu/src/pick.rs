@@ -4,6 +4,7 @@
 
 use crate::cloud::GpuCloud;
 use crate::context::GpuContext;
+use crate::graph::{CompiledGraph, GraphBuilder, Physical, Res, ResourceDesc};
 use crate::paged::{PagedCloud, PagedView};
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::renderer::{RenderSettings, Renderer};
@@ -55,7 +56,7 @@ impl Renderer {
             target,
         )?;
         ctx.checked("picking", || ctx.queue.submit([enc.finish()]))?;
-        read_pick(ctx, target, pixel, radius)
+        read_pick(ctx, target, self.pick_buffers(target)?, pixel, radius)
     }
 
     /// Like [`pick`](Self::pick) for a paged cloud: the LoD picks the points (as a moving
@@ -98,10 +99,21 @@ impl Renderer {
         )?;
         ctx.checked("picking", || ctx.queue.submit([enc.finish()]))?;
         paged.after_submit();
-        read_pick(ctx, target, pixel, radius)
+        read_pick(ctx, target, self.pick_buffers(target)?, pixel, radius)
     }
 
-    #[allow(clippy::too_many_arguments)]
+    fn pick_buffers<'t>(
+        &self,
+        target: &'t RenderTarget,
+    ) -> Result<[&'t wgpu::Buffer; 2], GpuError> {
+        match &self.pick_graph {
+            Some(g) => g.buffers(target),
+            None => Err(GpuError::Device("no pick was drawn".into())),
+        }
+    }
+
+    /// Draws the pick passes into the pick graph's two buffers (closest depth, then point ids),
+    /// which stay in the target's pool for [`read_pick`].
     fn record_pick(
         &mut self,
         ctx: &GpuContext,
@@ -109,7 +121,7 @@ impl Renderer {
         key: (PointEncoding, u32, SplatMode),
         storage: &PointStorage,
         dispatch: RasterDispatch<'_>,
-        target: &RenderTarget,
+        target: &mut RenderTarget,
     ) -> Result<(), GpuError> {
         if let Entry::Vacant(slot) = self.pick.entry(key) {
             slot.insert(ctx.checked("building the pick passes", || {
@@ -119,16 +131,56 @@ impl Renderer {
         let Some(pipes) = self.pick.get(&key) else {
             return Ok(());
         };
-        let buffers = [&target.pixels.depth32, &target.pixels.color32];
-        for b in buffers {
+        if self.pick_graph.is_none() {
+            self.pick_graph = Some(PickGraph::new()?);
+        }
+        let Some(graph) = &self.pick_graph else {
+            return Ok(());
+        };
+        target.pool.ensure(ctx, &graph.graph)?;
+        let [depth, ids] = graph.buffers(target)?;
+        for b in [depth, ids] {
             enc.clear_buffer(b, 0, None);
         }
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("pick"),
             timestamp_writes: None,
         });
-        pipes.record(&ctx.device, &mut pass, storage, dispatch, &buffers);
+        pipes.record(&ctx.device, &mut pass, storage, dispatch, &[depth, ids]);
         Ok(())
+    }
+}
+
+/// The pick passes' graph: the closest depth, then the point ids, both kept for reading back.
+pub(crate) struct PickGraph {
+    graph: CompiledGraph<&'static str>,
+    depth: Res,
+    ids: Res,
+}
+
+impl PickGraph {
+    pub fn new() -> Result<Self, GpuError> {
+        let mut g = GraphBuilder::default();
+        let word = ResourceDesc::PixelBuffer { bytes_per_pixel: 4 };
+        let depth = g.transient("pick depth", word);
+        let ids = g.transient("pick ids", word);
+        g.pass("pick depth pass", &[], &[depth]);
+        g.pass("pick id pass", &[depth], &[ids]);
+        let graph = g
+            .compile(&[depth, ids])
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(Self { graph, depth, ids })
+    }
+
+    /// The depth and id buffers in `target`'s pool.
+    fn buffers<'t>(&self, target: &'t RenderTarget) -> Result<[&'t wgpu::Buffer; 2], GpuError> {
+        let get = |r| match target.pool.get(&self.graph, r) {
+            Some(Physical::Buffer(b)) => Ok(b),
+            _ => Err(GpuError::Device(
+                "the pick buffers are not allocated".into(),
+            )),
+        };
+        Ok([get(self.depth)?, get(self.ids)?])
     }
 }
 
@@ -142,6 +194,7 @@ pub(crate) fn untier(inv_depth: u32) -> u32 {
 fn read_pick(
     ctx: &GpuContext,
     target: &RenderTarget,
+    [depth_buffer, id_buffer]: [&wgpu::Buffer; 2],
     pixel: [u32; 2],
     radius: u32,
 ) -> Result<Option<PickHit>, GpuError> {
@@ -162,8 +215,8 @@ fn read_pick(
     };
     let (depth_rb, id_rb) = (readback("pick depth"), readback("pick ids"));
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(&target.pixels.depth32, offset, &depth_rb, 0, size);
-    enc.copy_buffer_to_buffer(&target.pixels.color32, offset, &id_rb, 0, size);
+    enc.copy_buffer_to_buffer(depth_buffer, offset, &depth_rb, 0, size);
+    enc.copy_buffer_to_buffer(id_buffer, offset, &id_rb, 0, size);
     ctx.checked("reading the pick", || ctx.queue.submit([enc.finish()]))?;
     let depth: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &depth_rb)?);
     let ids: Vec<u32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &id_rb)?);

@@ -13,12 +13,12 @@
 
 use crate::cloud::write_frame;
 use crate::context::GpuContext;
+use crate::frame::{FrameGraph, FramePass, FrameShape, Source};
 use crate::pick::{nearest_in_rows, rows_around, untier, PickHit};
 use crate::raster::{
-    grid, storage_group, storage_layout, PixelKind, RasterDispatch, RasterPipelines, RasterVariant,
-    WORKGROUP,
+    grid, storage_group, storage_layout, RasterDispatch, RasterPipelines, RasterVariant, WORKGROUP,
 };
-use crate::renderer::Renderer;
+use crate::renderer::{frame_shape, record_frame, RenderSettings, Renderer};
 use crate::screen::{ScreenPasses, ScreenSettings};
 use crate::shaders;
 use crate::shuffle::ShuffledBuffer;
@@ -674,9 +674,8 @@ impl LookupPass {
         enc: &mut wgpu::CommandEncoder,
         cloud: &ProgressiveCloud,
         state: &ProgressiveState,
-        target: &RenderTarget,
+        keys: &wgpu::Buffer,
     ) {
-        let keys = &target.pixels.key64;
         enc.clear_buffer(keys, 0, None);
         let group1 = storage_group(
             device,
@@ -775,6 +774,7 @@ pub struct ProgressiveRenderer {
     /// Built on first use of each splat mode.
     points: HashMap<SplatMode, PointPasses>,
     screen: ScreenPasses,
+    graphs: HashMap<FrameShape, FrameGraph>,
     /// Frames submitted so far (the ids timings carry).
     frames: u64,
     in_flight: std::collections::VecDeque<wgpu::SubmissionIndex>,
@@ -822,6 +822,7 @@ impl ProgressiveRenderer {
             page_size,
             points: HashMap::new(),
             screen: ScreenPasses::new(device),
+            graphs: HashMap::new(),
             frames: 0,
             in_flight: std::collections::VecDeque::new(),
         })
@@ -907,62 +908,74 @@ impl ProgressiveRenderer {
         let budget = settings.budget.min(cloud.points);
         cloud.prepare(ctx, camera, (target.width, target.height), settings);
         cloud.write_fill(ctx, state.next_fill, budget);
-        self.screen
-            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         let device = &ctx.device;
         self.frames += 1;
         let frame = self.frames;
         let reproject = settings.reproject && state.has_list;
         let listed = cloud.listed_bits(ctx, !settings.splats.is_pixel())?;
+        let render_settings = RenderSettings {
+            variant: self.variant,
+            screen: settings.screen,
+            hidden_classes: settings.hidden_classes,
+            splats: settings.splats,
+        };
+        let shape = frame_shape(Source::Progressive, &render_settings, false);
+        let mut enc = device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&state.indexed, 0, None);
+        // Reproject clears the bits of the slots it draws; without it, some may be left.
+        if !reproject {
+            enc.clear_buffer(listed, 0, None);
+        }
+        // Kept over frames while the view stays still; else this frame's own.
+        if !(reproject && state.color_keys_kept) {
+            enc.clear_buffer(&state.color_keys, 0, None);
+        }
+        let state_ref = &*state;
+        let _graph_overhead = record_frame(
+            (&mut self.screen, &mut self.graphs),
+            ctx,
+            &mut enc,
+            target,
+            &render_settings,
+            camera,
+            shape,
+            |pass, enc, px, stamps| {
+                match pass {
+                    FramePass::Reproject if reproject => {
+                        passes.reproject.record(
+                            device,
+                            enc,
+                            cloud,
+                            state_ref,
+                            listed,
+                            stamps.compute(),
+                        );
+                    }
+                    FramePass::Fill => {
+                        passes
+                            .fill
+                            .record(device, enc, cloud, state_ref, stamps.compute());
+                    }
+                    FramePass::Lookup => {
+                        passes.lookup.record(device, enc, cloud, state_ref, px.keys);
+                    }
+                    FramePass::Prepare => {
+                        passes.prepare.record(device, enc, cloud, state_ref, listed);
+                    }
+                    _ => {}
+                }
+                Ok(())
+            },
+        )?;
+        if let Some(t) = target.timer.as_mut() {
+            t.resolve(&mut enc, frame, reproject);
+        }
         let submission = ctx.checked("rendering a progressive frame", || {
-            let mut enc = device.create_command_encoder(&Default::default());
-            let timer = target.timer.as_ref();
-            let stamps = |begin: u32| {
-                timer.map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.queries,
-                    beginning_of_pass_write_index: Some(begin),
-                    end_of_pass_write_index: Some(begin + 1),
-                })
-            };
-            enc.clear_buffer(&state.indexed, 0, None);
-            // Reproject clears the bits of the slots it draws; without it, some may be left.
-            if !reproject {
-                enc.clear_buffer(listed, 0, None);
-            }
-            // Kept over frames while the view stays still; else this frame's own.
-            if !(reproject && state.color_keys_kept) {
-                enc.clear_buffer(&state.color_keys, 0, None);
-            }
-            if reproject {
-                passes
-                    .reproject
-                    .record(device, &mut enc, cloud, state, listed, stamps(0));
-            }
-            passes
-                .fill
-                .record(device, &mut enc, cloud, state, stamps(2));
-            passes.lookup.record(device, &mut enc, cloud, state, target);
-            self.screen.record(
-                device,
-                &mut enc,
-                target,
-                PixelKind::Key64,
-                !settings.splats.is_pixel(),
-                &settings.screen,
-                stamps(4),
-            );
-            passes
-                .prepare
-                .record(device, &mut enc, cloud, state, listed);
-            if let Some(t) = target.timer.as_mut() {
-                t.resolve(&mut enc, frame, reproject);
-            }
-            let submission = ctx.queue.submit([enc.finish()]);
-            if let Some(t) = target.timer.as_mut() {
-                t.after_submit();
-            }
-            submission
+            ctx.queue.submit([enc.finish()])
         })?;
+        if let Some(t) = target.timer.as_mut() {
+            t.after_submit();
+        }
         self.in_flight.push_back(submission);
         while self.in_flight.len() > 16 {
             self.in_flight.pop_front();

@@ -4,7 +4,6 @@ use crate::context::Capabilities;
 use crate::shaders;
 use crate::splat::{self, SplatMode};
 use crate::storage::{point_group_layout, PointEncoding, PointStorage};
-use crate::target::RenderTarget;
 
 /// Every way of drawing points, selectable by name (`--raster`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -140,18 +139,6 @@ impl PixelKind {
     /// side when splats are drawn (blending sums colours and keeps none).
     pub fn carries_splat_sizes(self) -> bool {
         matches!(self, PixelKind::Key64 | PixelKind::TwoPass32)
-    }
-
-    /// The buffers of group 1, in binding order.
-    pub fn buffers(self, target: &RenderTarget) -> Vec<&wgpu::Buffer> {
-        let p = &target.pixels;
-        match self {
-            PixelKind::Hardware => vec![],
-            PixelKind::Key64 => vec![&p.key64],
-            PixelKind::TwoPass32 => vec![&p.depth32, &p.color32],
-            PixelKind::Hqs => vec![&p.depth32, &p.sums],
-            PixelKind::Hqs1r => vec![&p.depth32, &p.packed, &p.overflow],
-        }
     }
 }
 
@@ -357,6 +344,38 @@ impl RasterPipelines {
         Self { stages }
     }
 
+    /// Records stage `k` over every chunk of `storage` (its pixel buffers picked from the
+    /// variant's `pixel_buffers`).
+    pub fn record_stage(
+        &self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        k: usize,
+        storage: &PointStorage,
+        dispatch: RasterDispatch<'_>,
+        pixel_buffers: &[&wgpu::Buffer],
+    ) {
+        let Some(stage) = self.stages.get(k) else {
+            return;
+        };
+        let mine: Vec<&wgpu::Buffer> = stage.buffers.iter().map(|i| pixel_buffers[*i]).collect();
+        let group1 = storage_group(device, "pixel buffers", &stage.group1_layout, &mine);
+        pass.set_pipeline(&stage.pipeline);
+        pass.set_bind_group(1, &group1, &[]);
+        for (c, chunk) in storage.chunks.iter().enumerate() {
+            pass.set_bind_group(0, &chunk.bind_group, &[]);
+            match dispatch {
+                RasterDispatch::Direct => {
+                    let [x, y] = grid(chunk.slots);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                RasterDispatch::Indirect(args) => {
+                    pass.dispatch_workgroups_indirect(args, c as u64 * 12);
+                }
+            }
+        }
+    }
+
     /// Records every stage over every chunk of `storage` into one compute pass.
     pub fn record(
         &self,
@@ -366,24 +385,8 @@ impl RasterPipelines {
         dispatch: RasterDispatch<'_>,
         pixel_buffers: &[&wgpu::Buffer],
     ) {
-        for stage in &self.stages {
-            let mine: Vec<&wgpu::Buffer> =
-                stage.buffers.iter().map(|i| pixel_buffers[*i]).collect();
-            let group1 = storage_group(device, "pixel buffers", &stage.group1_layout, &mine);
-            pass.set_pipeline(&stage.pipeline);
-            pass.set_bind_group(1, &group1, &[]);
-            for (c, chunk) in storage.chunks.iter().enumerate() {
-                pass.set_bind_group(0, &chunk.bind_group, &[]);
-                match dispatch {
-                    RasterDispatch::Direct => {
-                        let [x, y] = grid(chunk.slots);
-                        pass.dispatch_workgroups(x, y, 1);
-                    }
-                    RasterDispatch::Indirect(args) => {
-                        pass.dispatch_workgroups_indirect(args, c as u64 * 12);
-                    }
-                }
-            }
+        for k in 0..self.stages.len() {
+            self.record_stage(device, pass, k, storage, dispatch, pixel_buffers);
         }
     }
 }

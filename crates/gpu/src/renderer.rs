@@ -1,14 +1,20 @@
-//! One frame: (LoD →) raster (a compute variant or the hardware baseline) → screen passes.
+//! One frame: (LoD →) raster (a compute variant or the hardware baseline) → screen passes, as
+//! the frame's render graph (frame.rs) orders them.
 
 use crate::cloud::GpuCloud;
 use crate::context::GpuContext;
+use crate::frame::{
+    FrameGraph, FrameGraphSummary, FramePass, FrameShape, PixelResources, Source, Stamps,
+};
 use crate::hw_points::HwPointsPipeline;
 use crate::paged::{PagedCloud, PagedView};
+use crate::raster::PixelKind;
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::reuse::TemporalReuse;
 use crate::screen::{ScreenPasses, ScreenSettings};
 use crate::splat::{SplatMode, SplatSettings};
 use crate::storage::PointEncoding;
+use crate::storage::PointStorage;
 use crate::target::RenderTarget;
 use crate::GpuError;
 use pointlet_core::Camera;
@@ -74,21 +80,28 @@ pub struct Renderer {
     raster: HashMap<(RasterVariant, PointEncoding, u32, SplatMode), RasterPipelines>,
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
     pub(crate) pick: HashMap<(PointEncoding, u32, SplatMode), RasterPipelines>,
-    screen: ScreenPasses,
+    pub(crate) screen: ScreenPasses,
+    /// Frame graphs, compiled once per shape.
+    pub(crate) graphs: HashMap<FrameShape, FrameGraph>,
+    /// CPU time the graphs took besides their passes, and the frames it covers.
+    graph_overhead: (std::time::Duration, u64),
+    /// The pick passes' graph, compiled on the first pick.
+    pub(crate) pick_graph: Option<crate::pick::PickGraph>,
     /// Frames submitted so far (the ids timings carry).
     frames: u64,
     in_flight: std::collections::VecDeque<wgpu::SubmissionIndex>,
 }
 
-type Stamps<'a> = Option<wgpu::ComputePassTimestampWrites<'a>>;
-
 impl Renderer {
     pub fn new(ctx: &GpuContext) -> Self {
         Self {
+            pick_graph: None,
             raster: HashMap::new(),
             hw: HashMap::new(),
             pick: HashMap::new(),
             screen: ScreenPasses::new(&ctx.device),
+            graphs: HashMap::new(),
+            graph_overhead: Default::default(),
             frames: 0,
             in_flight: std::collections::VecDeque::new(),
         }
@@ -165,40 +178,45 @@ impl Renderer {
             &settings.hidden_classes,
             &settings.splats,
         );
-        self.screen
-            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
+        let shape = frame_shape(Source::Static, settings, false);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let timer = target.timer.as_ref();
-        let stamps = |begin: u32| {
-            timer.map(|t| wgpu::ComputePassTimestampWrites {
-                query_set: &t.queries,
-                beginning_of_pass_write_index: Some(begin),
-                end_of_pass_write_index: Some(begin + 1),
-            })
-        };
-        if variant == RasterVariant::HwPoints {
-            if let Some(hw) = self.hw.get(&(cloud.encoding, cloud.page_size)) {
-                let writes = timer.map(|t| wgpu::RenderPassTimestampWrites {
-                    query_set: &t.queries,
-                    beginning_of_pass_write_index: Some(2),
-                    end_of_pass_write_index: Some(3),
-                });
-                hw.record(&mut enc, cloud, target, writes);
-            }
-        } else {
-            self.record_raster(
-                ctx,
-                &mut enc,
-                variant,
-                (cloud.encoding, cloud.page_size, mode),
-                &cloud.storage,
-                RasterDispatch::Direct,
-                target,
-                true,
-                stamps(2),
-            );
-        }
-        self.finish_frame(ctx, enc, target, settings, false)
+        let pipes = self
+            .raster
+            .get(&(variant, cloud.encoding, cloud.page_size, mode));
+        let hw = self.hw.get(&(cloud.encoding, cloud.page_size));
+        let cloud = &*cloud;
+        let overhead = record_frame(
+            (&mut self.screen, &mut self.graphs),
+            ctx,
+            &mut enc,
+            target,
+            settings,
+            camera,
+            shape,
+            |pass, enc, px, stamps| {
+                match pass {
+                    FramePass::HwPoints => {
+                        if let (Some(hw), Some(depth)) = (hw, px.hw_depth) {
+                            hw.record(enc, cloud, px.raster_layer, depth, stamps.render());
+                        }
+                    }
+                    FramePass::Raster(stage) => {
+                        let dispatch = RasterDispatch::Direct;
+                        let draw = StageDraw {
+                            storage: &cloud.storage,
+                            dispatch,
+                            clear_keys: true,
+                        };
+                        record_stage(&ctx.device, enc, pipes, stage, &draw, px, variant, &stamps);
+                    }
+                    _ => {}
+                }
+                Ok(())
+            },
+        )?;
+        self.graph_overhead.0 += overhead;
+        self.graph_overhead.1 += 1;
+        self.submit(ctx, enc, target, false)
     }
 
     /// Records and submits one frame of a paged (virtualized) cloud: the GPU LoD picks each
@@ -215,7 +233,7 @@ impl Renderer {
         settings: &RenderSettings,
         view: &PagedView,
         target: &mut RenderTarget,
-        reuse: Option<&mut TemporalReuse>,
+        mut reuse: Option<&mut TemporalReuse>,
     ) -> Result<(), GpuError> {
         let variant = settings.variant;
         if variant == RasterVariant::HwPoints {
@@ -228,8 +246,6 @@ impl Renderer {
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
         self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size, mode)?;
-        self.screen
-            .prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
         // Only closest-point rasterizers are order independent and can add points to a kept
         // framebuffer; HQS must see all points of a frame in both of its passes, and adaptive
         // splats change size as points are added.
@@ -237,120 +253,102 @@ impl Renderer {
             accumulate: view.accumulate && settings.accumulates(),
             ..*view
         };
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let timer = target.timer.as_ref();
-        let stamps = |begin: u32| {
-            timer.map(|t| wgpu::ComputePassTimestampWrites {
-                query_set: &t.queries,
-                beginning_of_pass_write_index: Some(begin),
-                end_of_pass_write_index: Some(begin + 1),
-            })
-        };
-        paged.record_lod(
-            ctx,
-            &mut enc,
-            camera,
-            (target.width, target.height),
-            &view,
-            settings,
-            timer.map(|t| &t.queries),
-        )?;
-        self.record_raster(
-            ctx,
-            &mut enc,
-            variant,
-            (paged.encoding, paged.page_size, mode),
-            &paged.storage,
-            RasterDispatch::Indirect(&paged.indirect),
-            target,
-            !view.accumulate,
-            stamps(2),
-        );
-        if let Some(reuse) = reuse {
-            if settings.accumulates() {
-                let reprojected =
-                    !view.accumulate && reuse.record_reproject(ctx, &mut enc, target, camera)?;
-                reuse.record_keep(ctx, &mut enc, target, camera, reprojected)?;
-            } else {
-                reuse.forget();
+        if !settings.accumulates() {
+            if let Some(r) = reuse.as_deref_mut() {
+                r.forget();
             }
         }
-        self.finish_frame(ctx, enc, target, settings, true)?;
+        let reusing = reuse.is_some() && settings.accumulates();
+        let shape = frame_shape(Source::Paged, settings, reusing);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let pipes = self
+            .raster
+            .get(&(variant, paged.encoding, paged.page_size, mode));
+        let queries = target.timer.as_ref().map(|t| t.queries.clone());
+        let size = (target.width, target.height);
+        let mut reprojected = false;
+        let overhead = record_frame(
+            (&mut self.screen, &mut self.graphs),
+            ctx,
+            &mut enc,
+            target,
+            settings,
+            camera,
+            shape,
+            |pass, enc, px, stamps| {
+                match pass {
+                    FramePass::Lod => {
+                        paged.record_lod(
+                            ctx,
+                            enc,
+                            camera,
+                            size,
+                            &view,
+                            settings,
+                            queries.as_ref(),
+                        )?;
+                    }
+                    FramePass::Raster(stage) => {
+                        let draw = StageDraw {
+                            storage: &paged.storage,
+                            dispatch: RasterDispatch::Indirect(&paged.indirect),
+                            clear_keys: !view.accumulate,
+                        };
+                        record_stage(&ctx.device, enc, pipes, stage, &draw, px, variant, &stamps);
+                    }
+                    FramePass::ReuseReproject => {
+                        if let Some(r) = reuse.as_deref_mut() {
+                            reprojected = !view.accumulate
+                                && r.record_reproject(ctx, enc, px.keys, size, camera)?;
+                        }
+                    }
+                    FramePass::ReuseKeep => {
+                        if let Some(r) = reuse.as_deref_mut() {
+                            r.record_keep(ctx, enc, px.keys, size, camera, reprojected)?;
+                        }
+                    }
+                    _ => {}
+                }
+                Ok(())
+            },
+        )?;
+        self.graph_overhead.0 += overhead;
+        self.graph_overhead.1 += 1;
+        self.submit(ctx, enc, target, true)?;
         paged.after_submit();
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn record_raster(
-        &self,
-        ctx: &GpuContext,
-        enc: &mut wgpu::CommandEncoder,
-        variant: RasterVariant,
-        key: (PointEncoding, u32, SplatMode),
-        storage: &crate::storage::PointStorage,
-        dispatch: RasterDispatch<'_>,
-        target: &RenderTarget,
-        clear: bool,
-        stamps: Stamps<'_>,
-    ) {
-        let Some(pipes) = self.raster.get(&(variant, key.0, key.1, key.2)) else {
-            return;
-        };
-        let buffers = variant.buffers().buffers(target);
-        if clear {
-            for b in &buffers {
-                enc.clear_buffer(b, 0, None);
-            }
-        }
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(variant.name()),
-            timestamp_writes: stamps,
-        });
-        pipes.record(&ctx.device, &mut pass, storage, dispatch, &buffers);
-    }
-
-    fn finish_frame(
+    fn submit(
         &mut self,
         ctx: &GpuContext,
         mut enc: wgpu::CommandEncoder,
         target: &mut RenderTarget,
-        settings: &RenderSettings,
         had_lod: bool,
     ) -> Result<(), GpuError> {
-        let kind = settings.variant.buffers();
-        let device = &ctx.device;
-        let screen_passes = &mut self.screen;
         self.frames += 1;
-        let frame = self.frames;
-        let submission = {
-            let target_ref = &*target;
-            let stamps = target_ref
-                .timer
-                .as_ref()
-                .map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.queries,
-                    beginning_of_pass_write_index: Some(4),
-                    end_of_pass_write_index: Some(5),
-                });
-            screen_passes.record(
-                device,
-                &mut enc,
-                target_ref,
-                kind,
-                kind.carries_splat_sizes() && !settings.splats.is_pixel(),
-                &settings.screen,
-                stamps,
-            );
-            if let Some(t) = target.timer.as_mut() {
-                t.resolve(&mut enc, frame, had_lod);
-            }
-            ctx.checked("rendering a frame", || ctx.queue.submit([enc.finish()]))?
-        };
+        if let Some(t) = target.timer.as_mut() {
+            t.resolve(&mut enc, self.frames, had_lod);
+        }
+        let submission = ctx.checked("rendering a frame", || ctx.queue.submit([enc.finish()]))?;
         if let Some(t) = target.timer.as_mut() {
             t.after_submit();
         }
         self.in_flight.push_back(submission);
         Ok(())
+    }
+
+    /// Mean CPU time per frame that the render graph took besides recording its passes
+    /// (looking up the compiled graph, transient allocation checks, clears, resolving
+    /// resources and timestamps), since the last call; `None` before any frame.
+    pub fn take_graph_overhead(&mut self) -> Option<std::time::Duration> {
+        let (total, frames) = std::mem::take(&mut self.graph_overhead);
+        (frames > 0).then(|| total / frames as u32)
+    }
+
+    /// The frame graphs compiled so far (one per frame shape drawn).
+    pub fn frame_graphs(&self) -> Vec<FrameGraphSummary> {
+        self.graphs.values().map(FrameGraph::summary).collect()
     }
 
     /// Frames submitted so far; timings carry these numbers.
@@ -425,4 +423,91 @@ pub(crate) fn limit_in_flight(
         }
     }
     Ok(())
+}
+
+/// The graph shape of a frame of `settings` from `source`.
+pub(crate) fn frame_shape(source: Source, settings: &RenderSettings, reuse: bool) -> FrameShape {
+    FrameShape {
+        source,
+        kind: if source == Source::Progressive {
+            PixelKind::Key64
+        } else {
+            settings.variant.buffers()
+        },
+        reuse,
+        occlusion: settings.screen.occlusion.is_some(),
+        fill: settings.screen.fill_radius > 0,
+    }
+}
+
+/// Prepares the screen passes and records the graph of `shape` (compiled on first use), the
+/// passes of points through `points`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn record_frame(
+    (screen, graphs): (&mut ScreenPasses, &mut HashMap<FrameShape, FrameGraph>),
+    ctx: &GpuContext,
+    enc: &mut wgpu::CommandEncoder,
+    target: &mut RenderTarget,
+    settings: &RenderSettings,
+    camera: &Camera,
+    shape: FrameShape,
+    points: impl FnMut(
+        FramePass,
+        &mut wgpu::CommandEncoder,
+        &PixelResources<'_>,
+        Stamps<'_>,
+    ) -> Result<(), GpuError>,
+) -> Result<std::time::Duration, GpuError> {
+    screen.prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
+    let looked_up = std::time::Instant::now();
+    if let Entry::Vacant(slot) = graphs.entry(shape) {
+        slot.insert(FrameGraph::build(shape).map_err(|e| GpuError::Device(e.to_string()))?);
+    }
+    let Some(graph) = graphs.get(&shape) else {
+        return Ok(std::time::Duration::ZERO);
+    };
+    let lookup = looked_up.elapsed();
+    let splat_sizes = shape.kind.carries_splat_sizes() && !settings.splats.is_pixel();
+    Ok(lookup + graph.record(ctx, enc, target, screen, splat_sizes, points)?)
+}
+
+/// What a raster stage draws: the points and how many workgroups, and whether the 64-bit keys
+/// start empty (off when a still view accumulates).
+pub(crate) struct StageDraw<'a> {
+    pub storage: &'a PointStorage,
+    pub dispatch: RasterDispatch<'a>,
+    pub clear_keys: bool,
+}
+
+/// Records stage `stage` of `pipes` into the pixel buffers of `variant`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn record_stage(
+    device: &wgpu::Device,
+    enc: &mut wgpu::CommandEncoder,
+    pipes: Option<&RasterPipelines>,
+    stage: u8,
+    draw: &StageDraw<'_>,
+    px: &PixelResources<'_>,
+    variant: RasterVariant,
+    stamps: &Stamps<'_>,
+) {
+    let Some(pipes) = pipes else {
+        return;
+    };
+    let kind = variant.buffers();
+    if kind == PixelKind::Key64 && stage == 0 && draw.clear_keys {
+        enc.clear_buffer(px.keys, 0, None);
+    }
+    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(variant.name()),
+        timestamp_writes: stamps.compute(),
+    });
+    pipes.record_stage(
+        device,
+        &mut pass,
+        stage as usize,
+        draw.storage,
+        draw.dispatch,
+        &px.buffers(kind),
+    );
 }

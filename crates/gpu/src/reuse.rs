@@ -5,7 +5,6 @@
 use crate::context::GpuContext;
 use crate::raster::storage_group;
 use crate::shaders;
-use crate::target::RenderTarget;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use pointlet_core::camera::{mat_mul, to_f32};
@@ -34,7 +33,7 @@ impl ReuseBuffers {
         ctx: &GpuContext,
         layout: &wgpu::BindGroupLayout,
         uniform: &wgpu::Buffer,
-        target: &RenderTarget,
+        keys: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         storage_group(
             &ctx.device,
@@ -43,7 +42,7 @@ impl ReuseBuffers {
             &[
                 uniform,
                 &self.previous,
-                &target.pixels.key64,
+                keys,
                 &self.ghost,
                 &self.ages,
                 &self.ghost_ages,
@@ -109,16 +108,16 @@ impl TemporalReuse {
         self.kept.is_some()
     }
 
-    /// Records the reprojection of the kept frame into `target`'s keys as seen by `camera`
-    /// (nothing when no frame of this size is kept); true if it did.
+    /// Records the reprojection of the kept frame into the frame's `keys` (an image of `size`)
+    /// as seen by `camera` (nothing when no frame of this size is kept); true if it did.
     pub(crate) fn record_reproject(
         &mut self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
+        keys: &wgpu::Buffer,
+        size: (u32, u32),
         camera: &Camera,
     ) -> Result<bool, GpuError> {
-        let size = (target.width, target.height);
         let (Some(last), Some(buffers)) = (&self.kept, &self.buffers) else {
             return Ok(false);
         };
@@ -138,7 +137,7 @@ impl TemporalReuse {
             ctx,
             &self.reproject.get_bind_group_layout(0),
             &self.uniform,
-            target,
+            keys,
         );
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("reproject last frame"),
@@ -150,17 +149,17 @@ impl TemporalReuse {
         Ok(true)
     }
 
-    /// Records keeping `target`'s keys (less the pixels reprojection won) for the next frame,
-    /// seen by `camera`. `reprojected`: whether this frame's ghost buffer is current.
+    /// Records keeping the frame's `keys` (less the pixels reprojection won) for the next
+    /// frame, seen by `camera`. `reprojected`: whether this frame's ghost buffer is current.
     pub(crate) fn record_keep(
         &mut self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
+        keys: &wgpu::Buffer,
+        size: (u32, u32),
         camera: &Camera,
         reprojected: bool,
     ) -> Result<(), GpuError> {
-        let size = (target.width, target.height);
         if self.buffers.as_ref().is_none_or(|b| b.size != size) {
             let pixels = size.0 as u64 * size.1 as u64;
             let buffer = |label: &str, bytes: u64| {
@@ -200,7 +199,7 @@ impl TemporalReuse {
             ctx,
             &self.keep.get_bind_group_layout(0),
             &self.uniform,
-            target,
+            keys,
         );
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("keep frame"),

@@ -1,9 +1,11 @@
-//! Screen passes after the raster: resolve the pixel buffers into a colour/depth layer, fill
-//! holes, then compose the background and Eye-Dome Lighting into the output image.
+//! Screen passes after the raster: resolve the pixel buffers into a colour/depth layer, filter
+//! it (occlusion, hole filling), then compose the background and Eye-Dome Lighting into the
+//! output image — or, for blending without filters, normalise and compose in one pass. Which of
+//! them a frame runs, and on which layers, is its render graph's business (frame.rs).
 
 use crate::raster::{storage_group, storage_layout, PixelKind};
 use crate::shaders;
-use crate::target::{RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::target::{Layer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
 use bytemuck::{Pod, Zeroable};
 use std::collections::HashMap;
 
@@ -162,6 +164,9 @@ pub(crate) struct ScreenPasses {
     occlusion: wgpu::ComputePipeline,
     compose_layout: wgpu::BindGroupLayout,
     compose: wgpu::ComputePipeline,
+    blended_out_layout: wgpu::BindGroupLayout,
+    /// Normalisation + EDL per blending kind.
+    blended: HashMap<PixelKind, (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     uniforms: wgpu::Buffer,
 }
 
@@ -171,6 +176,13 @@ const COMPOSE_OFFSET: u64 = 512;
 const OCCLUSION_OFFSET: u64 = 768;
 /// Directions (of 8) that must be blocked for the occlusion filter to drop a pixel.
 const OCCLUSION_MIN_BLOCKED: u32 = 6;
+
+/// A screen pass from one layer to another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Filter {
+    Occlusion,
+    HoleFill,
+}
 
 /// What the screen passes do this frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -227,6 +239,11 @@ impl ScreenPasses {
                 Binding::Storage(COLOR_FORMAT),
             ],
         );
+        let blended_out_layout = layout(
+            device,
+            "normalise and compose",
+            &[Binding::Uniform, Binding::Storage(COLOR_FORMAT)],
+        );
         let fill = pipeline(device, "fill", shaders::FILL, "fill", &[&fill_layout]);
         // Same bindings as filling: one layer in, the other out.
         let occlusion = pipeline(
@@ -239,7 +256,7 @@ impl ScreenPasses {
         let compose = pipeline(
             device,
             "compose",
-            shaders::COMPOSE,
+            &format!("{}\n{}", shaders::EDL, shaders::COMPOSE),
             "compose",
             &[&compose_layout],
         );
@@ -257,7 +274,20 @@ impl ScreenPasses {
             occlusion,
             compose_layout,
             compose,
+            blended_out_layout,
+            blended: HashMap::new(),
             uniforms,
+        }
+    }
+
+    /// The pixel buffers' bind group layout and the body that reads them, per kind.
+    fn pixel_source(kind: PixelKind) -> Option<(usize, &'static str)> {
+        match kind {
+            PixelKind::Hardware => None,
+            PixelKind::Key64 => Some((1, shaders::RESOLVE_MIN64)),
+            PixelKind::TwoPass32 => Some((2, shaders::RESOLVE_MIN32)),
+            PixelKind::Hqs => Some((2, shaders::BLEND_HQS)),
+            PixelKind::Hqs1r => Some((3, shaders::BLEND_HQS1R)),
         }
     }
 
@@ -267,25 +297,20 @@ impl ScreenPasses {
         kind: PixelKind,
         splat_sizes: bool,
     ) -> Option<&(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
-        let body = match kind {
-            PixelKind::Hardware => return None,
-            PixelKind::Key64 => shaders::RESOLVE_MIN64,
-            PixelKind::TwoPass32 => shaders::RESOLVE_MIN32,
-            PixelKind::Hqs => shaders::RESOLVE_HQS,
-            PixelKind::Hqs1r => shaders::RESOLVE_HQS1R,
-        };
+        let (n, body) = Self::pixel_source(kind)?;
+        let blended = matches!(kind, PixelKind::Hqs | PixelKind::Hqs1r);
         let out = &self.resolve_out_layout;
         Some(self.resolve.entry((kind, splat_sizes)).or_insert_with(|| {
-            let n = match kind {
-                PixelKind::Key64 => 1,
-                PixelKind::Hqs1r => 3,
-                _ => 2,
-            };
             let group1 = storage_layout(device, n, true);
+            let source = if blended {
+                shaders::resolve_pass(&format!("{body}\n{}", shaders::RESOLVE_BLENDED))
+            } else {
+                shaders::resolve_pass(body)
+            };
             let p = pipeline_with(
                 device,
                 "resolve",
-                &shaders::resolve_pass(body),
+                &source,
                 "resolve",
                 &[out, &group1],
                 &[("SPLAT_SIZES", splat_sizes as u32 as f64)],
@@ -295,7 +320,7 @@ impl ScreenPasses {
     }
 
     /// Writes this frame's uniforms; call before recording. `fov_y_deg` sizes pixels for the
-    /// occlusion filter.
+    /// occlusion filter and splats for EDL.
     pub fn prepare(
         &self,
         queue: &wgpu::Queue,
@@ -348,119 +373,146 @@ impl ScreenPasses {
         })
     }
 
-    /// Records resolve → occlusion → fill → compose into one compute pass (the middle two
-    /// ping-pong between the two layers).
-    pub fn record(
+    /// A bind group of a uniform range and texture views, bindings 0, 1, 2…
+    fn textures(
+        &self,
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        (offset, size): (u64, u64),
+        textures: &[&wgpu::Texture],
+    ) -> wgpu::BindGroup {
+        let views: Vec<wgpu::TextureView> = textures
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: self.uniform(offset, size),
+        }];
+        for (i, v) in views.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 1 + i as u32,
+                resource: wgpu::BindingResource::TextureView(v),
+            });
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// Records the resolve of `kind`'s pixel `buffers` into the target's raster layer.
+    pub fn resolve(
         &mut self,
         device: &wgpu::Device,
-        enc: &mut wgpu::CommandEncoder,
+        pass: &mut wgpu::ComputePass<'_>,
         target: &RenderTarget,
         kind: PixelKind,
         splat_sizes: bool,
-        settings: &ScreenSettings,
-        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        buffers: &[&wgpu::Buffer],
     ) {
-        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
-        let a = &target.layers[0];
-        let resolve_pipeline = self.resolve_pipeline(device, kind, splat_sizes).cloned();
-        let resolve = resolve_pipeline.map(|(p, g1)| {
-            let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("resolve output"),
-                layout: &self.resolve_out_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.uniform(SCREEN_OFFSET, 16),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&view(&a.color)),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(&view(&a.depth)),
-                    },
-                ],
-            });
-            let group1 = storage_group(device, "pixel buffers", &g1, &kind.buffers(target));
-            (p, group0, group1)
-        });
-        let textures = |layout: &wgpu::BindGroupLayout,
-                        offset: u64,
-                        size: u64,
-                        src: &crate::target::Layer,
-                        dst: &[&wgpu::Texture]| {
-            let views: Vec<wgpu::TextureView> = [&src.color, &src.depth]
-                .into_iter()
-                .chain(dst.iter().copied())
-                .map(view)
-                .collect();
-            let mut entries = vec![wgpu::BindGroupEntry {
-                binding: 0,
-                resource: self.uniform(offset, size),
-            }];
-            for (i, v) in views.iter().enumerate() {
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 1 + i as u32,
-                    resource: wgpu::BindingResource::TextureView(v),
-                });
-            }
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: None,
-                layout,
-                entries: &entries,
-            })
+        let Some((p, g1)) = self.resolve_pipeline(device, kind, splat_sizes).cloned() else {
+            return;
         };
-        // Each enabled filter reads the current layer and writes the other one.
-        let mut filters: Vec<(&wgpu::ComputePipeline, wgpu::BindGroup)> = Vec::new();
-        let mut current = 0usize;
-        for (on, pipeline, offset) in [
-            (
-                settings.occlusion.is_some(),
-                &self.occlusion,
-                OCCLUSION_OFFSET,
-            ),
-            (settings.fill_radius > 0, &self.fill, FILL_OFFSET),
-        ] {
-            if on {
-                let (src, dst) = (&target.layers[current], &target.layers[1 - current]);
-                let group = textures(
-                    &self.fill_layout,
-                    offset,
-                    16,
-                    src,
-                    &[&dst.color, &dst.depth],
-                );
-                filters.push((pipeline, group));
-                current = 1 - current;
-            }
-        }
-        let compose_src = &target.layers[current];
-        let compose_group = textures(
+        let layer = &target.raster_layer;
+        let group0 = self.textures(
+            device,
+            &self.resolve_out_layout,
+            (SCREEN_OFFSET, 16),
+            &[&layer.color, &layer.depth],
+        );
+        let group1 = storage_group(device, "pixel buffers", &g1, buffers);
+        pass.set_pipeline(&p);
+        pass.set_bind_group(0, &group0, &[]);
+        pass.set_bind_group(1, &group1, &[]);
+        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+    }
+
+    /// Records a filter from layer `src` to layer `dst`.
+    pub fn filter(
+        &self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        target: &RenderTarget,
+        filter: Filter,
+        src: &Layer,
+        dst: &Layer,
+    ) {
+        let (pipeline, offset) = match filter {
+            Filter::Occlusion => (&self.occlusion, OCCLUSION_OFFSET),
+            Filter::HoleFill => (&self.fill, FILL_OFFSET),
+        };
+        let group = self.textures(
+            device,
+            &self.fill_layout,
+            (offset, 16),
+            &[&src.color, &src.depth, &dst.color, &dst.depth],
+        );
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+    }
+
+    /// Records background and EDL from layer `src` into the output image.
+    pub fn compose(
+        &self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        target: &RenderTarget,
+        src: &Layer,
+    ) {
+        let group = self.textures(
+            device,
             &self.compose_layout,
-            COMPOSE_OFFSET,
-            32,
-            compose_src,
+            (COMPOSE_OFFSET, 32),
+            &[&src.color, &src.depth, &target.output],
+        );
+        pass.set_pipeline(&self.compose);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+    }
+
+    /// Records blending's normalisation, background and EDL straight from `kind`'s pixel
+    /// `buffers` into the output image.
+    pub fn compose_blended(
+        &mut self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        target: &RenderTarget,
+        kind: PixelKind,
+        buffers: &[&wgpu::Buffer],
+    ) {
+        let Some((n, body)) = Self::pixel_source(kind) else {
+            return;
+        };
+        let out = &self.blended_out_layout;
+        let (p, g1) = self
+            .blended
+            .entry(kind)
+            .or_insert_with(|| {
+                let group1 = storage_layout(device, n, true);
+                let source = format!("{}\n{body}\n{}", shaders::EDL, shaders::COMPOSE_BLENDED);
+                let p = pipeline(
+                    device,
+                    "normalise and compose",
+                    &source,
+                    "compose",
+                    &[out, &group1],
+                );
+                (p, group1)
+            })
+            .clone();
+        let group0 = self.textures(
+            device,
+            &self.blended_out_layout,
+            (COMPOSE_OFFSET, 32),
             &[&target.output],
         );
-        let groups = [target.width.div_ceil(8), target.height.div_ceil(8)];
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("screen passes"),
-            timestamp_writes: timestamps,
-        });
-        if let Some((p, g0, g1)) = &resolve {
-            pass.set_pipeline(p);
-            pass.set_bind_group(0, g0, &[]);
-            pass.set_bind_group(1, g1, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], 1);
-        }
-        for (pipeline, group) in &filters {
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], 1);
-        }
-        pass.set_pipeline(&self.compose);
-        pass.set_bind_group(0, &compose_group, &[]);
-        pass.dispatch_workgroups(groups[0], groups[1], 1);
+        let group1 = storage_group(device, "pixel buffers", &g1, buffers);
+        pass.set_pipeline(&p);
+        pass.set_bind_group(0, &group0, &[]);
+        pass.set_bind_group(1, &group1, &[]);
+        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
     }
 }

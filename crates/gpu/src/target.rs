@@ -2,25 +2,10 @@
 //! of the screen passes and the final RGBA8 image, plus the timestamp queries of a frame.
 
 use crate::context::GpuContext;
+use crate::graph::TransientPool;
 use crate::GpuError;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
-
-/// Per-pixel buffers of the compute rasterizers (cleared to 0 = empty before each frame).
-pub(crate) struct PixelBuffers {
-    /// 64-bit closest-point keys.
-    pub key64: wgpu::Buffer,
-    /// ~depth bits (32-bit rasterizers and HQS depth pass).
-    pub depth32: wgpu::Buffer,
-    /// ~rgba of the 32-bit fallback.
-    pub color32: wgpu::Buffer,
-    /// HQS: r, g, b, count per pixel.
-    pub sums: wgpu::Buffer,
-    /// HQS1R: 16-16-16-16 word per pixel.
-    pub packed: wgpu::Buffer,
-    /// HQS1R: two 64-bit fallback words per pixel.
-    pub overflow: wgpu::Buffer,
-}
 
 /// An image and its linear view depth (0 = empty pixel).
 pub(crate) struct Layer {
@@ -28,29 +13,62 @@ pub(crate) struct Layer {
     pub depth: wgpu::Texture,
 }
 
+/// What frames are drawn into. The resources that outlive a frame are here: the 64-bit keys
+/// (a still view accumulates into them, temporal reuse and progressive rendering read them),
+/// the resolved raster layer (read back for tests and picking) and the output image. Everything
+/// else a frame needs is a transient of its render graph (frame.rs), allocated in `pool`.
 pub struct RenderTarget {
     pub width: u32,
     pub height: u32,
-    pub(crate) pixels: PixelBuffers,
-    /// Raster output (resolve or hw-points) and the hole-filled copy.
-    pub(crate) layers: [Layer; 2],
-    /// Depth attachment of the hardware baseline.
-    pub(crate) hw_depth: wgpu::Texture,
+    /// `~depth << 32 | ~rgba` per pixel (0 = empty).
+    pub(crate) keys: wgpu::Buffer,
+    pub(crate) raster_layer: Layer,
     pub(crate) output: wgpu::Texture,
+    pub(crate) pool: TransientPool,
     pub(crate) timer: Option<FrameTimer>,
 }
 
 pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
-/// GPU bytes per pixel: keys 8, depth 4, colour 4, HQS sums 16, HQS1R word 8 + overflow 16,
-/// two colour/depth layers 16, hardware depth 4, output 4.
-const BYTES_PER_PIXEL: u64 = 80;
+/// GPU bytes per pixel at most: keys 8, raster layer 8, output 4, and the largest set of
+/// transients a frame graph takes (HQS1R's depth, packed and overflow words, 28, and two
+/// filtered layers, 16).
+const BYTES_PER_PIXEL: u64 = 64;
+
+/// A texture of `size`.
+pub(crate) fn image(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
 
 impl RenderTarget {
-    /// GPU bytes a target of this size allocates.
+    /// GPU bytes a target of this size allocates at most.
     pub fn bytes_for(width: u32, height: u32) -> u64 {
         width as u64 * height as u64 * BYTES_PER_PIXEL
+    }
+
+    /// GPU bytes allocated so far (transients are allocated as frame graphs need them).
+    pub fn gpu_bytes(&self) -> u64 {
+        self.width as u64 * self.height as u64 * 20 + self.pool.bytes()
     }
 
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self, GpuError> {
@@ -62,87 +80,53 @@ impl RenderTarget {
         }
         let device = &ctx.device;
         let px = width as u64 * height as u64;
-        let buffer = |label: &str, bytes_per_pixel: u64| {
-            ctx.checked("allocating the framebuffer", || {
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: px * bytes_per_pixel,
-                    usage: wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::COPY_DST
-                        | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                })
+        let keys = ctx.checked("allocating the framebuffer", || {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("keys"),
+                size: px * 8,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
             })
-        };
-        let pixels = PixelBuffers {
-            key64: buffer("keys", 8)?,
-            depth32: buffer("depth", 4)?,
-            color32: buffer("colour", 4)?,
-            sums: buffer("hqs sums", 16)?,
-            packed: buffer("hqs1r words", 8)?,
-            overflow: buffer("hqs1r overflow", 16)?,
-        };
-        let texture = |label: &str, format, extra: wgpu::TextureUsages| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::STORAGE_BINDING
-                    | wgpu::TextureUsages::TEXTURE_BINDING
-                    | extra,
-                view_formats: &[],
-            })
-        };
+        })?;
+        let sampled = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let layers = [
-            Layer {
-                color: texture("raster colour", COLOR_FORMAT, attach),
-                // COPY_SRC: read_depth copies it out (without it the copy fails validation).
-                depth: texture(
-                    "raster depth",
-                    DEPTH_FORMAT,
-                    attach | wgpu::TextureUsages::COPY_SRC,
-                ),
-            },
-            Layer {
-                color: texture("filled colour", COLOR_FORMAT, wgpu::TextureUsages::empty()),
-                depth: texture("filled depth", DEPTH_FORMAT, wgpu::TextureUsages::empty()),
-            },
-        ];
-        let hw_depth = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("hw depth"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Depth32Float,
-            usage: attach,
-            view_formats: &[],
-        });
-        let output = texture(
-            "image",
-            COLOR_FORMAT,
-            wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
-        );
+        let size = (width, height);
+        let raster_layer = ctx.checked("allocating the raster layer", || Layer {
+            color: image(
+                device,
+                "raster colour",
+                size,
+                COLOR_FORMAT,
+                sampled | attach,
+            ),
+            // COPY_SRC: read_depth copies it out (without it the copy fails validation).
+            depth: image(
+                device,
+                "raster depth",
+                size,
+                DEPTH_FORMAT,
+                sampled | attach | wgpu::TextureUsages::COPY_SRC,
+            ),
+        })?;
+        let output = ctx.checked("allocating the output image", || {
+            image(
+                device,
+                "image",
+                size,
+                COLOR_FORMAT,
+                sampled | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+            )
+        })?;
         let timer = ctx.caps.timestamps.then(|| FrameTimer::new(ctx));
         Ok(Self {
             width,
             height,
-            pixels,
-            layers,
-            hw_depth,
+            keys,
+            raster_layer,
             output,
+            pool: TransientPool::new(width, height),
             timer,
         })
     }
@@ -157,9 +141,10 @@ impl RenderTarget {
         read_texture(ctx, &self.output, 4)
     }
 
-    /// Reads the raster layer's linear depth (0 = empty), for tests and picking.
+    /// Reads the raster layer's linear depth (0 = empty), for tests and picking. Frames whose
+    /// graph needs no resolved layer (blending without screen filters) leave it as it was.
     pub fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
-        let bytes = read_texture(ctx, &self.layers[0].depth, 4)?;
+        let bytes = read_texture(ctx, &self.raster_layer.depth, 4)?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 }

@@ -9,7 +9,9 @@ use crate::view::View;
 use egui::{Color32, RichText};
 use pointlet_core::color::{ColorMode, Ramp};
 use pointlet_core::size::format_bytes;
-use pointlet_gpu::{EdlSettings, OcclusionSettings, RasterVariant};
+use pointlet_gpu::{
+    EdlSettings, OcclusionSettings, PointSize, RasterVariant, RenderSettings, SplatShape, MAX_SPLAT,
+};
 
 /// The keys, for the help window and the README.
 pub const CONTROLS: &[(&str, &str)] = &[
@@ -214,6 +216,49 @@ fn legend(s: &mut egui::Ui, view: &mut View) {
     }
 }
 
+/// Point size (fixed pixels or adaptive to the drawn spacing) and the splats' shape; the
+/// hardware point-list baseline draws one-pixel points only.
+fn point_size(s: &mut egui::Ui, settings: &mut RenderSettings) {
+    let hw = settings.variant == RasterVariant::HwPoints;
+    let splats = &mut settings.splats;
+    s.add_enabled_ui(!hw, |s| {
+        let mut adaptive = splats.is_adaptive();
+        egui::ComboBox::from_label("point size")
+            .selected_text(if adaptive { "adaptive" } else { "fixed" })
+            .show_ui(s, |c| {
+                c.selectable_value(&mut adaptive, false, "fixed");
+                c.selectable_value(&mut adaptive, true, "adaptive");
+            })
+            .response
+            .on_hover_text("adaptive: each point as wide as the spacing of the points drawn");
+        match (adaptive, splats.size) {
+            (true, PointSize::Fixed(_)) => splats.size = PointSize::adaptive(),
+            (false, PointSize::Adaptive { .. }) => splats.size = PointSize::Fixed(1),
+            _ => {}
+        }
+        match &mut splats.size {
+            PointSize::Fixed(px) => {
+                s.add(egui::Slider::new(px, 1..=MAX_SPLAT).text("point size (px)"));
+            }
+            PointSize::Adaptive { scale } => {
+                s.add(egui::Slider::new(scale, 0.5..=4.0).text("size × spacing"));
+            }
+        }
+        s.add_enabled_ui(!splats.is_pixel(), |s| {
+            egui::ComboBox::from_label("splat shape")
+                .selected_text(splats.shape.name())
+                .show_ui(s, |c| {
+                    for shape in SplatShape::ALL {
+                        c.selectable_value(&mut splats.shape, shape, shape.name());
+                    }
+                });
+        });
+    });
+    if hw {
+        s.label("hw-points draws one-pixel points");
+    }
+}
+
 fn rendering(p: &mut egui::Ui, view: &mut View) {
     egui::CollapsingHeader::new("Rendering")
         .default_open(true)
@@ -224,8 +269,11 @@ fn rendering(p: &mut egui::Ui, view: &mut View) {
                 .selected_text(current.name())
                 .show_ui(s, |c| {
                     for v in RasterVariant::ALL {
-                        let usable =
-                            v.unsupported_reason(&caps).is_none() && view.content.supports(v);
+                        // The point-list baseline has no point size.
+                        let sized = v != RasterVariant::HwPoints || view.settings.splats.is_pixel();
+                        let usable = v.unsupported_reason(&caps).is_none()
+                            && view.content.supports(v)
+                            && sized;
                         c.add_enabled_ui(usable, |c| {
                             c.selectable_value(&mut view.settings.variant, v, v.name());
                         });
@@ -261,6 +309,7 @@ fn rendering(p: &mut egui::Ui, view: &mut View) {
                     scene.set_temporal_reuse(reuse);
                 }
             }
+            point_size(s, &mut view.settings);
             let screen = &mut view.settings.screen;
             s.add(egui::Slider::new(&mut screen.fill_radius, 0..=8).text("hole filling (px)"));
             let mut edl = screen.edl.is_some();
