@@ -2,13 +2,13 @@
 //! timestamp queries, beside a copy kernel measured in the same process (the paper's Table 1).
 
 use crate::render_cmd::reorder;
-use crate::view_args::{parse_encoding, parse_order, parse_variant};
+use crate::view_args::{parse_encoding, parse_order, parse_shape, parse_variant};
 use anyhow::{bail, Context, Result};
 use pointlet_core::order::VertexOrder;
 use pointlet_core::Camera;
 use pointlet_gpu::{
-    copy_bandwidth, GpuCloud, PointEncoding, RasterVariant, RenderSettings, RenderTarget, Renderer,
-    ScreenSettings,
+    copy_bandwidth, GpuCloud, PointEncoding, PointSize, RasterVariant, RenderSettings,
+    RenderTarget, Renderer, SplatRaster, SplatSettings, SplatShape,
 };
 use serde::Serialize;
 use std::path::PathBuf;
@@ -40,6 +40,13 @@ pub struct Args {
     pub page_size: u32,
     #[arg(long)]
     pub adapter: Option<String>,
+    /// Point size of every rasterizer: pixels (1–32) or `adaptive`. Beyond one pixel the
+    /// billboard-quad pipeline is timed too (row `quads`), and hw-points is left out.
+    #[arg(long, default_value = "1", value_parser = PointSize::parse)]
+    pub point_size: PointSize,
+    /// Shape of points larger than a pixel: square or circle.
+    #[arg(long, default_value = "square", value_parser = parse_shape)]
+    pub splat_shape: SplatShape,
     /// Write every measurement as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -72,6 +79,8 @@ struct Report {
     height: u32,
     frames: u32,
     page_size: u32,
+    point_size: String,
+    splat_shape: &'static str,
     copy_gb_per_s: Option<f64>,
     /// Why the timings cannot be true (then `rows` is empty): see [`implausible`].
     unreliable: Option<String>,
@@ -103,16 +112,48 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         args.variants.clone()
     };
-    let variants: Vec<RasterVariant> = variants
+    let splats = SplatSettings {
+        size: args.point_size,
+        shape: args.splat_shape,
+        ..Default::default()
+    };
+    let mut configs: Vec<(&'static str, RenderSettings)> = variants
         .into_iter()
         .filter(|v| match v.unsupported_reason(&ctx.caps) {
             Some(why) => {
                 eprintln!("skipping {}: {why}", v.name());
                 false
             }
+            None if *v == RasterVariant::HwPoints && !splats.is_pixel() => {
+                eprintln!("skipping hw-points: it draws one-pixel points");
+                false
+            }
             None => true,
         })
+        .map(|v| {
+            let settings = RenderSettings {
+                variant: v,
+                splats,
+                ..Default::default()
+            };
+            (v.name(), settings)
+        })
         .collect();
+    if !splats.is_pixel() {
+        // The same splats as billboard quads, with the fastest closest-point rasterizer's rules.
+        let settings = RenderSettings {
+            variant: RasterVariant::ReduceEarlyZ.fallback(&ctx.caps),
+            splats: SplatSettings {
+                raster: SplatRaster::Quads,
+                ..splats
+            },
+            ..Default::default()
+        };
+        if settings.variant.accumulates() {
+            configs.push(("quads", settings));
+        }
+    }
+    let names: Vec<&'static str> = configs.iter().map(|(n, _)| *n).collect();
     let orders = if args.orders.is_empty() {
         VertexOrder::ALL.to_vec()
     } else {
@@ -145,17 +186,13 @@ pub fn run(args: Args) -> Result<()> {
             let mut cloud = GpuCloud::upload(&ctx, &set, *encoding, args.page_size)
                 .with_context(|| format!("uploading {} points", points))?;
             for (view, camera) in &views {
-                for variant in &variants {
-                    let settings = RenderSettings {
-                        variant: *variant,
-                        screen: ScreenSettings::default(),
-                        ..Default::default()
-                    };
+                for (name, settings) in &configs {
+                    let variant = &settings.variant;
                     let mut times = Vec::new();
                     let mut walls = Vec::new();
                     for frame in 0..args.frames + 2 {
                         let started = std::time::Instant::now();
-                        renderer.render(&ctx, &mut cloud, camera, &settings, &mut target)?;
+                        renderer.render(&ctx, &mut cloud, camera, settings, &mut target)?;
                         let t = renderer
                             .timing(&ctx, &mut target)?
                             .context("timestamps vanished")?;
@@ -164,13 +201,18 @@ pub fn run(args: Args) -> Result<()> {
                             walls.push(started.elapsed().as_secs_f64() * 1e3);
                         }
                     }
+                    let passes = if settings.quads() {
+                        1
+                    } else {
+                        variant.geometry_passes()
+                    };
                     let bytes = (cloud.points * encoding.bytes_per_point()
                         + cloud.fine_points() * 4)
-                        * variant.geometry_passes() as u64;
+                        * passes as u64;
                     let med = median(times.clone());
                     let gbs = bytes as f64 / (med * 1e6);
                     rows.push(Row {
-                        variant: variant.name(),
+                        variant: name,
                         order: order.name(),
                         encoding: encoding.name(),
                         view,
@@ -194,7 +236,7 @@ pub fn run(args: Args) -> Result<()> {
                         encoding.name(),
                         order.name(),
                         view,
-                        variant.name(),
+                        name,
                         med
                     );
                 }
@@ -211,7 +253,7 @@ pub fn run(args: Args) -> Result<()> {
             rows.clear();
         }
         None => {
-            print_tables(&rows, &variants, &orders, &encodings);
+            print_tables(&rows, &names, &orders, &encodings);
             print_summary(&rows, copy);
         }
     }
@@ -224,6 +266,8 @@ pub fn run(args: Args) -> Result<()> {
             height: args.height,
             frames: args.frames,
             page_size: args.page_size,
+            point_size: args.point_size.name(),
+            splat_shape: args.splat_shape.name(),
             copy_gb_per_s: copy,
             unreliable,
             rows,
@@ -270,7 +314,7 @@ fn implausible(rows: &[Row], copy: Option<f64>) -> Option<String> {
 
 fn print_tables(
     rows: &[Row],
-    variants: &[RasterVariant],
+    variants: &[&'static str],
     orders: &[VertexOrder],
     encodings: &[PointEncoding],
 ) {
@@ -283,10 +327,10 @@ fn print_tables(
             }
             println!();
             for v in variants {
-                print!("{:<15}", v.name());
+                print!("{:<15}", v);
                 for o in orders {
                     let cell = rows.iter().find(|r| {
-                        r.variant == v.name()
+                        r.variant == *v
                             && r.order == o.name()
                             && r.encoding == encoding.name()
                             && r.view == view

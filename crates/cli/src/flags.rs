@@ -277,11 +277,27 @@ fn point_size(given: &Given, input: Option<&Path>, draw: &DrawArgs) -> Result<()
             splats.size.name()
         ));
     }
-    if given.has("splat_shape") && splats.is_pixel() {
-        return Err(
-            "--splat-shape applies to points larger than a pixel (--point-size 2–32 or adaptive)"
-                .into(),
-        );
+    for flag in ["splat_shape", "splat_raster"] {
+        if given.has(flag) && splats.is_pixel() {
+            return Err(format!(
+                "--{} applies to points larger than a pixel (--point-size 2–32 or adaptive)",
+                flag.replace('_', "-")
+            ));
+        }
+    }
+    if splats.quads() {
+        if !draw.raster.accumulates() {
+            return Err(format!(
+                "--splat-raster quads keeps the closest splat per pixel: it takes a closest-point --raster (atomic-min, early-z, reduce, reduce-early-z, dedup), not {}",
+                draw.raster.name()
+            ));
+        }
+        if crate::progressive_cmd::is_progressive(input, draw) {
+            return Err(
+                "--splat-raster quads draws stores and point files read whole; a point file drawn while it loads takes compute splats"
+                    .into(),
+            );
+        }
     }
     Ok(())
 }

@@ -6,7 +6,7 @@ use pointlet_core::order::VertexOrder;
 use pointlet_core::{Aabb, Camera};
 use pointlet_gpu::{
     EdlSettings, OcclusionSettings, PointEncoding, PointSize, RasterVariant, RenderSettings,
-    ScreenSettings, SplatSettings, SplatShape,
+    ScreenSettings, SplatRaster, SplatSettings, SplatShape,
 };
 use std::path::Path;
 
@@ -113,6 +113,11 @@ pub struct DrawArgs {
     /// Shape of points larger than a pixel: square or circle.
     #[arg(long, default_value = "square", value_parser = parse_shape)]
     pub splat_shape: SplatShape,
+    /// How points larger than a pixel are drawn: `compute` (each rasterizer walks the
+    /// footprint) or `quads` (billboard quads through the render pipeline; closest-point
+    /// rasterizers, stores and point files drawn whole).
+    #[arg(long, default_value = "compute", value_parser = parse_splat_raster)]
+    pub splat_raster: SplatRaster,
 }
 
 impl DrawArgs {
@@ -133,6 +138,7 @@ impl DrawArgs {
         SplatSettings {
             size: self.point_size.unwrap_or(PointSize::Fixed(1)),
             shape: self.splat_shape,
+            raster: self.splat_raster,
         }
     }
 
@@ -237,6 +243,15 @@ pub fn parse_shape(s: &str) -> Result<SplatShape, String> {
         format!(
             "unknown splat shape (one of: {})",
             names(&SplatShape::ALL, SplatShape::name)
+        )
+    })
+}
+
+pub fn parse_splat_raster(s: &str) -> Result<SplatRaster, String> {
+    SplatRaster::parse(s).ok_or_else(|| {
+        format!(
+            "unknown splat rasterizer (one of: {})",
+            names(&SplatRaster::ALL, SplatRaster::name)
         )
     })
 }

@@ -67,6 +67,24 @@ fn splats_cover_more_pixels_than_points_for_files_and_stores() {
             "{}: lit pixels one {one}, circle {circle}, square {square}, adaptive {adaptive}",
             input.display()
         );
+        if input != &store {
+            continue;
+        }
+        // Billboard quads cover the same pixels as the compute footprints (a point file is
+        // drawn while it loads, which takes compute splats).
+        let quads = lit(&render(
+            input,
+            &png,
+            &[
+                "--view",
+                "closeup",
+                "--point-size",
+                "adaptive",
+                "--splat-raster",
+                "quads",
+            ],
+        ));
+        assert_eq!(quads, adaptive, "{}: quads vs compute", input.display());
     }
 }
 
@@ -160,5 +178,37 @@ fn point_sizes_that_cannot_apply_are_refused() {
     usage_fails(
         &["render", s(&laz), "-o", s(&png), "--splat-shape", "circle"],
         &["--splat-shape", "larger than a pixel"],
+    );
+    usage_fails(
+        &["render", s(&laz), "-o", s(&png), "--splat-raster", "quads"],
+        &["--splat-raster", "larger than a pixel"],
+    );
+    usage_fails(
+        &[
+            "render",
+            s(&laz),
+            "-o",
+            s(&png),
+            "--point-size",
+            "3",
+            "--splat-raster",
+            "quads",
+        ],
+        &["quads", "point file drawn while it loads"],
+    );
+    usage_fails(
+        &[
+            "render",
+            s(&laz),
+            "-o",
+            s(&png),
+            "--raster",
+            "hqs",
+            "--point-size",
+            "3",
+            "--splat-raster",
+            "quads",
+        ],
+        &["quads", "closest-point", "hqs"],
     );
 }

@@ -346,6 +346,7 @@ fn fixed_splats_converge_to_drawing_every_point_as_splats() {
     let splats = SplatSettings {
         size: PointSize::Fixed(3),
         shape: SplatShape::Square,
+        ..Default::default()
     };
     let path = files(dir.path()).swap_remove(0);
     for variant in [

@@ -189,15 +189,8 @@ fn project_splat(p: vec3<f32>, spacing: f32) -> Splat {
     return s;
 }
 
-// Pixel k (row-major) of the ring's square.
-fn splat_pixel(s: Splat, k: u32) -> SplatPixel {
-    let xy = s.ring_corner + vec2<i32>(i32(k % s.ring), i32(k / s.ring));
-    var out = SplatPixel(NO_PIXEL, false);
-    if xy.x < 0 || xy.y < 0 || xy.x >= i32(frame.size.x) || xy.y >= i32(frame.size.y) {
-        return out;
-    }
-    var inside: bool;
-    var in_ring: bool;
+// Whether pixel `xy` is in the splat's footprint (x) and in its ring (y).
+fn splat_covers(s: Splat, xy: vec2<i32>) -> vec2<bool> {
     if CIRCLE {
         // Distances between pixel centres and the splat centre, in 1/256 px.
         let d = xy * 256 + vec2<i32>(128) - s.q;
@@ -206,16 +199,25 @@ fn splat_pixel(s: Splat, k: u32) -> SplatPixel {
         let rr = 128 * i32(s.ring);
         // The pixel holding the centre always belongs to it: a circle narrower than a pixel
         // may cover no pixel centre at all.
-        inside = d2 <= r * r || all(xy == (s.q >> vec2<u32>(8u)));
-        in_ring = d2 <= rr * rr;
-    } else {
-        let o = xy - s.corner;
-        inside = o.x >= 0 && o.y >= 0 && o.x < i32(s.side) && o.y < i32(s.side);
-        in_ring = true;
+        let inside = d2 <= r * r || all(xy == (s.q >> vec2<u32>(8u)));
+        return vec2<bool>(inside, d2 <= rr * rr);
     }
-    if inside || in_ring {
+    let o = xy - s.corner;
+    let inside = o.x >= 0 && o.y >= 0 && o.x < i32(s.side) && o.y < i32(s.side);
+    return vec2<bool>(inside, true);
+}
+
+// Pixel k (row-major) of the ring's square.
+fn splat_pixel(s: Splat, k: u32) -> SplatPixel {
+    let xy = s.ring_corner + vec2<i32>(i32(k % s.ring), i32(k / s.ring));
+    var out = SplatPixel(NO_PIXEL, false);
+    if xy.x < 0 || xy.y < 0 || xy.x >= i32(frame.size.x) || xy.y >= i32(frame.size.y) {
+        return out;
+    }
+    let covered = splat_covers(s, xy);
+    if covered.x || covered.y {
         out.pixel = u32(xy.y) * frame.size.x + u32(xy.x);
-        out.ring = !inside;
+        out.ring = !covered.x;
     }
     return out;
 }

@@ -7,8 +7,8 @@
 // adaptive splats), and one draw entry per resident page of the range to draw — the whole
 // resident prefix up to the request, or when accumulating (camera still) only the points not
 // drawn yet. Entries go to the list of the chunk holding the page; `finalize` turns the counts
-// into indirect dispatch sizes. Replaces the paper's per-frame buffer compaction: only pages
-// change, and drawing reads them where they are.
+// into indirect dispatch sizes and the draw arguments of billboard quads. Replaces the paper's
+// per-frame buffer compaction: only pages change, and drawing reads them where they are.
 
 struct Pointlet {
     origin_hi: vec3<f32>,
@@ -67,6 +67,8 @@ struct DrawEntry {
 
 @group(1) @binding(0) var<storage, read_write> entry_counts: array<atomic<u32>>;
 @group(1) @binding(1) var<storage, read_write> indirect: array<u32>;
+// Billboard quads (splat_quads.wgsl): 4 vertices, PAGE_SIZE instances an entry.
+@group(1) @binding(2) var<storage, read_write> draw_args: array<u32>;
 
 var<workgroup> sums: array<f32, 256>;
 
@@ -227,4 +229,8 @@ fn finalize_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     indirect[c * 3u] = select(0u, x, n > 0u);
     indirect[c * 3u + 1u] = (n + x - 1u) / x;
     indirect[c * 3u + 2u] = 1u;
+    draw_args[c * 4u] = 4u;
+    draw_args[c * 4u + 1u] = n * params.page_size;
+    draw_args[c * 4u + 2u] = 0u;
+    draw_args[c * 4u + 3u] = 0u;
 }

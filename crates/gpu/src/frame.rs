@@ -20,6 +20,8 @@ pub(crate) enum FramePass {
     Raster(u8),
     /// The hardware point-list baseline, straight into the raster layer.
     HwPoints,
+    /// Splats as billboard quads, straight into the raster layer.
+    Quads,
     /// Temporal reuse: the last frame's pixels into this frame's keys, then keeping this frame.
     ReuseReproject,
     ReuseKeep,
@@ -43,7 +45,9 @@ impl FramePass {
     /// First of the two timestamp queries of the stage the pass belongs to (target.rs).
     fn stamps(self) -> Option<u32> {
         match self {
-            FramePass::Raster(_) | FramePass::HwPoints | FramePass::Fill => Some(2),
+            FramePass::Raster(_) | FramePass::HwPoints | FramePass::Quads | FramePass::Fill => {
+                Some(2)
+            }
             FramePass::Reproject => Some(0),
             FramePass::Resolve
             | FramePass::Occlusion
@@ -67,7 +71,10 @@ pub(crate) enum Source {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) struct FrameShape {
     pub source: Source,
+    /// `Hardware` for hw-points and billboard quads, which write the raster layer directly.
     pub kind: PixelKind,
+    /// Splats as billboard quads rather than hw-points (with `Hardware` pixels).
+    pub quads: bool,
     pub reuse: bool,
     pub occlusion: bool,
     pub fill: bool,
@@ -188,7 +195,12 @@ impl FrameGraph {
             (_, PixelKind::Hardware) => {
                 let hw = g.transient("hw depth", ResourceDesc::DepthAttachment);
                 r.hw_depth = Some(hw);
-                g.pass(FramePass::HwPoints, &[draw_list], &[raster_layer, hw]);
+                let pass = if shape.quads {
+                    FramePass::Quads
+                } else {
+                    FramePass::HwPoints
+                };
+                g.pass(pass, &[draw_list], &[raster_layer, hw]);
                 vec![]
             }
             (_, PixelKind::Key64) => {
@@ -447,6 +459,7 @@ mod tests {
         FrameShape {
             source,
             kind,
+            quads: false,
             reuse: false,
             occlusion,
             fill,
@@ -507,6 +520,9 @@ mod tests {
             passes(shape(Source::Static, PixelKind::Hardware, false, false)),
             [HwPoints, Compose]
         );
+        let mut quads = shape(Source::Paged, PixelKind::Hardware, false, true);
+        quads.quads = true;
+        assert_eq!(passes(quads), [Lod, Quads, HoleFill, Compose]);
         let mut reuse = shape(Source::Paged, PixelKind::Key64, false, false);
         reuse.reuse = true;
         assert_eq!(

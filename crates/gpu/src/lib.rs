@@ -11,6 +11,7 @@ mod hw_points;
 mod paged;
 mod pick;
 pub mod progressive;
+mod quads;
 mod raster;
 pub mod reference;
 mod renderer;
@@ -33,7 +34,7 @@ pub use raster::RasterVariant;
 pub use renderer::{FrameTiming, RenderSettings, Renderer};
 pub use reuse::{reprojection, TemporalReuse};
 pub use screen::{EdlSettings, OcclusionSettings, ScreenSettings};
-pub use splat::{box_spacing, PointSize, SplatSettings, SplatShape, MAX_SPLAT};
+pub use splat::{box_spacing, PointSize, SplatRaster, SplatSettings, SplatShape, MAX_SPLAT};
 pub use storage::{
     compact_step, decode_compact, encode_point, encode_positions, needs_fine, quantize_compact,
     PointEncoding, COMPACT_STEPS,

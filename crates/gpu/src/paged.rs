@@ -120,6 +120,8 @@ pub struct PagedCloud {
     pub(crate) storage: PointStorage,
     pub(crate) frame_uniform: wgpu::Buffer,
     pub(crate) indirect: wgpu::Buffer,
+    /// Draw arguments of the billboard quads per chunk (quads.rs): four u32 each.
+    pub(crate) draw_args: wgpu::Buffer,
     pub(crate) entry_counts: wgpu::Buffer,
     lod_params: wgpu::Buffer,
     feedback: wgpu::Buffer,
@@ -223,6 +225,11 @@ impl PagedCloud {
             chunks as u64 * 12,
             U::STORAGE | U::INDIRECT,
         )?;
+        let draw_args = buffer(
+            "indirect quad draws",
+            chunks as u64 * 16,
+            U::STORAGE | U::INDIRECT,
+        )?;
         let offsets: Vec<u32> = (0..chunks).map(|c| c * chunk_slots).collect();
         let storage = PointStorage::new(
             ctx,
@@ -302,7 +309,7 @@ impl PagedCloud {
         });
         let group1_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw list"),
-            entries: &[entry(0, write), entry(1, write)],
+            entries: &[entry(0, write), entry(1, write), entry(2, write)],
         });
         // One layout for the four passes, so the same bind groups serve them all.
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -344,7 +351,12 @@ impl PagedCloud {
                 &entries,
             ],
         );
-        let list_group = storage_group(device, "lod", &group1_layout, &[&entry_counts, &indirect]);
+        let list_group = storage_group(
+            device,
+            "lod",
+            &group1_layout,
+            &[&entry_counts, &indirect, &draw_args],
+        );
         let uploads = UploadQueue::new(ctx)?;
         let layout = Arc::new(BatchLayout {
             words: (encoding.position_bytes() / 4) as usize,
@@ -373,6 +385,7 @@ impl PagedCloud {
             storage,
             frame_uniform,
             indirect,
+            draw_args,
             entry_counts,
             lod_params,
             feedback,

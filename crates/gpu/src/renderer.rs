@@ -8,11 +8,12 @@ use crate::frame::{
 };
 use crate::hw_points::HwPointsPipeline;
 use crate::paged::{PagedCloud, PagedView};
+use crate::quads::{QuadDraw, QuadsPipeline};
 use crate::raster::PixelKind;
 use crate::raster::{RasterDispatch, RasterPipelines, RasterVariant};
 use crate::reuse::TemporalReuse;
 use crate::screen::{ScreenPasses, ScreenSettings};
-use crate::splat::{SplatMode, SplatSettings};
+use crate::splat::{SplatMode, SplatSettings, SplatShape};
 use crate::storage::PointEncoding;
 use crate::storage::PointStorage;
 use crate::target::RenderTarget;
@@ -58,9 +59,15 @@ impl RenderSettings {
 
     /// True when more points can be drawn into a kept framebuffer later with the same result:
     /// closest-point variants with splats whose size does not depend on how many points are
-    /// drawn (adaptive splats shrink as a still view adds points, so those frames redraw).
+    /// drawn (adaptive splats shrink as a still view adds points, so those frames redraw),
+    /// drawn by the compute rasterizers (billboard quads clear their layer each frame).
     pub fn accumulates(&self) -> bool {
-        self.variant.accumulates() && !self.splats.is_adaptive()
+        self.variant.accumulates() && !self.splats.is_adaptive() && !self.splats.quads()
+    }
+
+    /// Whether splats go through the billboard-quad pipeline this frame.
+    pub fn quads(&self) -> bool {
+        self.splats.quads() && self.variant.accumulates()
     }
 }
 
@@ -79,6 +86,7 @@ pub struct FrameTiming {
 pub struct Renderer {
     raster: HashMap<(RasterVariant, PointEncoding, u32, SplatMode), RasterPipelines>,
     hw: HashMap<(PointEncoding, u32), HwPointsPipeline>,
+    quads: HashMap<(PointEncoding, u32, SplatShape), QuadsPipeline>,
     pub(crate) pick: HashMap<(PointEncoding, u32, SplatMode), RasterPipelines>,
     pub(crate) screen: ScreenPasses,
     /// Frame graphs, compiled once per shape.
@@ -98,6 +106,7 @@ impl Renderer {
             pick_graph: None,
             raster: HashMap::new(),
             hw: HashMap::new(),
+            quads: HashMap::new(),
             pick: HashMap::new(),
             screen: ScreenPasses::new(&ctx.device),
             graphs: HashMap::new(),
@@ -120,6 +129,12 @@ impl Renderer {
                 adapter: ctx.describe(),
             });
         }
+        if splats.quads() && !variant.accumulates() {
+            return Err(GpuError::InvalidInput(format!(
+                "billboard quads keep the closest splat per pixel: {} blends or needs two passes; use a closest-point --raster or compute splats",
+                variant.name()
+            )));
+        }
         if variant == RasterVariant::HwPoints && !splats.is_pixel() {
             return Err(GpuError::InvalidInput(
                 "hw-points draws one-pixel points (the point-list baseline): larger points need a compute --raster".into(),
@@ -135,13 +150,20 @@ impl Renderer {
     fn ensure_pipelines(
         &mut self,
         ctx: &GpuContext,
-        variant: RasterVariant,
+        settings: &RenderSettings,
         encoding: PointEncoding,
         page_size: u32,
-        splats: SplatMode,
     ) -> Result<(), GpuError> {
         let device = &ctx.device;
-        if variant == RasterVariant::HwPoints {
+        let (variant, splats) = (settings.variant, settings.splats.mode());
+        if settings.quads() {
+            let shape = settings.splats.shape;
+            if let Entry::Vacant(slot) = self.quads.entry((encoding, page_size, shape)) {
+                slot.insert(ctx.checked("building the billboard-quad pipeline", || {
+                    QuadsPipeline::new(device, encoding, page_size, shape)
+                })?);
+            }
+        } else if variant == RasterVariant::HwPoints {
             if let Entry::Vacant(slot) = self.hw.entry((encoding, page_size)) {
                 slot.insert(ctx.checked("building the hw-points pipeline", || {
                     HwPointsPipeline::new(device, encoding, page_size)
@@ -170,7 +192,7 @@ impl Renderer {
         let variant = settings.variant;
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
-        self.ensure_pipelines(ctx, variant, cloud.encoding, cloud.page_size, mode)?;
+        self.ensure_pipelines(ctx, settings, cloud.encoding, cloud.page_size)?;
         cloud.prepare(
             ctx,
             camera,
@@ -184,6 +206,9 @@ impl Renderer {
             .raster
             .get(&(variant, cloud.encoding, cloud.page_size, mode));
         let hw = self.hw.get(&(cloud.encoding, cloud.page_size));
+        let quads = self
+            .quads
+            .get(&(cloud.encoding, cloud.page_size, settings.splats.shape));
         let cloud = &*cloud;
         let overhead = record_frame(
             (&mut self.screen, &mut self.graphs),
@@ -198,6 +223,13 @@ impl Renderer {
                     FramePass::HwPoints => {
                         if let (Some(hw), Some(depth)) = (hw, px.hw_depth) {
                             hw.record(enc, cloud, px.raster_layer, depth, stamps.render());
+                        }
+                    }
+                    FramePass::Quads => {
+                        if let (Some(q), Some(depth)) = (quads, px.hw_depth) {
+                            let draw = QuadDraw::Direct;
+                            let layer = px.raster_layer;
+                            q.record(enc, &cloud.storage, draw, layer, depth, stamps.render());
                         }
                     }
                     FramePass::Raster(stage) => {
@@ -245,7 +277,7 @@ impl Renderer {
         }
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
-        self.ensure_pipelines(ctx, variant, paged.encoding, paged.page_size, mode)?;
+        self.ensure_pipelines(ctx, settings, paged.encoding, paged.page_size)?;
         // Only closest-point rasterizers are order independent and can add points to a kept
         // framebuffer; HQS must see all points of a frame in both of its passes, and adaptive
         // splats change size as points are added.
@@ -264,6 +296,9 @@ impl Renderer {
         let pipes = self
             .raster
             .get(&(variant, paged.encoding, paged.page_size, mode));
+        let quads = self
+            .quads
+            .get(&(paged.encoding, paged.page_size, settings.splats.shape));
         let queries = target.timer.as_ref().map(|t| t.queries.clone());
         let size = (target.width, target.height);
         let mut reprojected = false;
@@ -295,6 +330,13 @@ impl Renderer {
                             clear_keys: !view.accumulate,
                         };
                         record_stage(&ctx.device, enc, pipes, stage, &draw, px, variant, &stamps);
+                    }
+                    FramePass::Quads => {
+                        if let (Some(q), Some(depth)) = (quads, px.hw_depth) {
+                            let draw = QuadDraw::Indirect(&paged.draw_args);
+                            let layer = px.raster_layer;
+                            q.record(enc, &paged.storage, draw, layer, depth, stamps.render());
+                        }
                     }
                     FramePass::ReuseReproject => {
                         if let Some(r) = reuse.as_deref_mut() {
@@ -427,13 +469,17 @@ pub(crate) fn limit_in_flight(
 
 /// The graph shape of a frame of `settings` from `source`.
 pub(crate) fn frame_shape(source: Source, settings: &RenderSettings, reuse: bool) -> FrameShape {
+    let quads = source != Source::Progressive && settings.quads();
     FrameShape {
         source,
         kind: if source == Source::Progressive {
             PixelKind::Key64
+        } else if quads {
+            PixelKind::Hardware
         } else {
             settings.variant.buffers()
         },
+        quads,
         reuse,
         occlusion: settings.screen.occlusion.is_some(),
         fill: settings.screen.fill_radius > 0,

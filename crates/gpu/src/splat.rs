@@ -72,11 +72,37 @@ impl SplatShape {
     }
 }
 
+/// How splats reach the pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SplatRaster {
+    /// Each compute rasterizer loops over the footprint with its own atomics.
+    Compute,
+    /// Billboard quads through the render pipeline and the hardware depth test (closest-point
+    /// rasterizers only; on equal depth the first drawn wins).
+    Quads,
+}
+
+impl SplatRaster {
+    pub const ALL: [SplatRaster; 2] = [SplatRaster::Compute, SplatRaster::Quads];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SplatRaster::Compute => "compute",
+            SplatRaster::Quads => "quads",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.name() == s)
+    }
+}
+
 /// Point size and shape of a frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SplatSettings {
     pub size: PointSize,
     pub shape: SplatShape,
+    pub raster: SplatRaster,
 }
 
 impl Default for SplatSettings {
@@ -84,6 +110,7 @@ impl Default for SplatSettings {
         Self {
             size: PointSize::Fixed(1),
             shape: SplatShape::Square,
+            raster: SplatRaster::Compute,
         }
     }
 }
@@ -110,6 +137,11 @@ impl SplatSettings {
 
     pub fn is_adaptive(&self) -> bool {
         matches!(self.size, PointSize::Adaptive { .. })
+    }
+
+    /// True when splats are drawn as billboard quads (points larger than a pixel only).
+    pub fn quads(&self) -> bool {
+        self.raster == SplatRaster::Quads && !self.is_pixel()
     }
 
     pub(crate) fn mode(&self) -> SplatMode {

@@ -209,12 +209,13 @@ pub(crate) fn point_group_layout(
         storage(1, both),
         storage(2, both),
         uniform(3, both),
-        storage(4, wgpu::ShaderStages::COMPUTE),
-        storage(6, wgpu::ShaderStages::COMPUTE),
-        storage(7, wgpu::ShaderStages::COMPUTE),
+        // The vertex stage pulls points too: billboard quads (quads.rs).
+        storage(4, both),
+        storage(6, both),
+        storage(7, both),
     ];
     if encoding == PointEncoding::Compact8 {
-        entries.push(storage(5, wgpu::ShaderStages::COMPUTE));
+        entries.push(storage(5, both));
     }
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(encoding.name()),

@@ -6,8 +6,8 @@ mod common;
 use common::*;
 use pointlet_gpu::reference;
 use pointlet_gpu::{
-    PointEncoding, PointSize, RasterVariant, RenderSettings, ScreenSettings, SplatSettings,
-    SplatShape,
+    PointEncoding, PointSize, RasterVariant, RenderSettings, ScreenSettings, SplatRaster,
+    SplatSettings, SplatShape,
 };
 
 const BLACK: [u8; 4] = [0, 0, 0, 255];
@@ -24,7 +24,11 @@ const CLOSEST: [RasterVariant; 6] = [
 fn settings(variant: RasterVariant, size: PointSize, shape: SplatShape) -> RenderSettings {
     RenderSettings {
         variant,
-        splats: SplatSettings { size, shape },
+        splats: SplatSettings {
+            size,
+            shape,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -39,6 +43,7 @@ fn fixed_splats_match_the_reference_exactly() {
             let splats = SplatSettings {
                 size: PointSize::Fixed(px),
                 shape,
+                ..Default::default()
             };
             for encoding in PointEncoding::ALL {
                 let drawn = drawn_positions(&ctx, &set, encoding, &cam);
@@ -202,6 +207,7 @@ fn blended_splats_match_the_reference() {
         let splats = SplatSettings {
             size: PointSize::Fixed(4),
             shape,
+            ..Default::default()
         };
         let avg = reference::blended_splats(
             &set.positions,
@@ -259,4 +265,56 @@ fn hw_points_refuse_larger_points() {
         )
         .expect_err("hw-points draws one-pixel points");
     assert!(err.to_string().contains("one-pixel"), "{err}");
+}
+
+#[test]
+fn billboard_quads_draw_the_compute_splats() {
+    let ctx = context();
+    let cam = camera();
+    // No exact duplicates: the depth test breaks ties by draw order, not colour.
+    let set = splat_scene(17, 4, false);
+    for shape in SplatShape::ALL {
+        for size in [
+            PointSize::Fixed(3),
+            PointSize::Fixed(6),
+            PointSize::adaptive(),
+        ] {
+            let compute = settings(RasterVariant::ReduceEarlyZ, size, shape);
+            let quads = RenderSettings {
+                splats: SplatSettings {
+                    raster: SplatRaster::Quads,
+                    ..compute.splats
+                },
+                ..compute
+            };
+            for encoding in PointEncoding::ALL {
+                let want = render_with(&ctx, &set, encoding, &compute, &cam);
+                let got = render_with(&ctx, &set, encoding, &quads, &cam);
+                assert_eq!(
+                    diff(&got, &want),
+                    (0, 0),
+                    "{} {} {}",
+                    size.name(),
+                    shape.name(),
+                    encoding.name()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn billboard_quads_refuse_blending() {
+    let ctx = context();
+    let set = splat_scene(18, 4, false);
+    let mut cloud =
+        pointlet_gpu::GpuCloud::upload(&ctx, &set, PointEncoding::Full16, 256).expect("upload");
+    let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+    let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+    let mut hqs = settings(RasterVariant::Hqs, PointSize::Fixed(3), SplatShape::Square);
+    hqs.splats.raster = SplatRaster::Quads;
+    let err = renderer
+        .render(&ctx, &mut cloud, &camera(), &hqs, &mut target)
+        .expect_err("quads keep the closest splat");
+    assert!(err.to_string().contains("closest"), "{err}");
 }
