@@ -13,6 +13,12 @@
 #   loading          50 M LAS/LAZ and a 200 M-point store read as a point file (--progressive),
 #                    and temporal reuse on that store (issue 11)
 #   view-first-frame `view --frames 1` of a 50 M-point LAS under a carried Xvfb (.xv/*.deb)
+#   splats-raster    bench-raster of one-pixel points, 3-pixel and adaptive splats, compute
+#                    footprints and billboard quads, 100 M points (issue 12)
+#   splats-quality   PSNR per bucket of one-pixel points, hole filling and adaptive splats,
+#                    200 M points (issue 12)
+#   splats-orbit     the 1 G-point realtime orbit with one-pixel points and adaptive splats
+#                    (compute, quads), alternated, warm (issue 12; generates the store)
 set -euo pipefail
 phase=$1
 out=$2
@@ -167,6 +173,36 @@ case "$phase" in
         2>&1 | tee -a "$log" || echo "view --raster $raster failed" | tee -a "$log"
     done
     rm -f /tmp/p50.las
+    ;;
+  splats-raster)
+    nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv >"$out/gpu.txt" || true
+    for size in 1 3 adaptive; do
+      "$bin" bench-raster --points 100M --frames 10 --orders original,shuffled-morton \
+        --encodings full16 --variants early-z,reduce-early-z,atomic-min-32,hqs1r \
+        --point-size "$size" --json "$out/raster-$size.json" 2>&1 | tee "$out/raster-$size.txt"
+    done
+    ;;
+  splats-quality)
+    small=/tmp/bench-200m.pointlet
+    [ -f "$small" ] || "$bin" generate --points 200M --lean -o "$small" 2>&1 | tail -1
+    "$bin" bench "$small" --quality --vram-budget 1GiB --ram-budget 4GiB --loaders 8 \
+      --json "$out/quality.json" 2>&1 | tee "$out/quality.txt"
+    ;;
+  splats-orbit)
+    [ -f "$store" ] || /usr/bin/time -f "generate: %e s, %M KiB" "$bin" generate --points 1G --lean \
+      -o "$store" 2>&1 | tail -2 | tee "$out/store.txt"
+    size=$(stat -c %s "$store")
+    common=(--frames 1200 --orbit-seconds 20 --vram-budget $((size / 20)) --ram-budget 4GiB --bucket 25M --realtime)
+    cat "$store" >/dev/null
+    for round in 1 2; do
+      for cfg in pixel adaptive quads; do
+        flags=()
+        [ "$cfg" = adaptive ] && flags=(--point-size adaptive)
+        [ "$cfg" = quads ] && flags=(--point-size adaptive --splat-raster quads)
+        "$bin" bench "$store" "${common[@]}" "${flags[@]}" --json "$out/orbit-$cfg-$round.json" \
+          2>&1 | tee "$out/orbit-$cfg-$round.txt"
+      done
+    done
     ;;
   *)
     echo "unknown phase $phase" >&2

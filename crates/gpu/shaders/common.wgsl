@@ -207,9 +207,9 @@ fn splat_covers(s: Splat, xy: vec2<i32>) -> vec2<bool> {
     return vec2<bool>(inside, true);
 }
 
-// Pixel k (row-major) of the ring's square.
-fn splat_pixel(s: Splat, k: u32) -> SplatPixel {
-    let xy = s.ring_corner + vec2<i32>(i32(k % s.ring), i32(k / s.ring));
+// The pixel at offset `d` in the ring's square (loops walk d row by row: no division).
+fn splat_pixel(s: Splat, d: vec2<u32>) -> SplatPixel {
+    let xy = s.ring_corner + vec2<i32>(d);
     var out = SplatPixel(NO_PIXEL, false);
     if xy.x < 0 || xy.y < 0 || xy.x >= i32(frame.size.x) || xy.y >= i32(frame.size.y) {
         return out;

@@ -59,13 +59,15 @@ fn reproject_splat(slot: u32, index: u32) {
     if class_hidden(color) {
         return;
     }
-    for (var k = 0u; k < s.ring * s.ring; k++) {
-        let px = splat_pixel(s, k);
-        if px.pixel == NO_PIXEL {
-            continue;
+    for (var dy = 0u; dy < s.ring; dy++) {
+        for (var dx = 0u; dx < s.ring; dx++) {
+            let px = splat_pixel(s, vec2<u32>(dx, dy));
+            if px.pixel == NO_PIXEL {
+                continue;
+            }
+            let high = u64(tier_depth(~s.depth_bits, px.ring)) << 32u;
+            atomicMax(&framebuffer[px.pixel], high | u64(~slot));
+            atomicMax(&color_keys[px.pixel], high | u64(~splat_color_word(color, s)));
         }
-        let high = u64(tier_depth(~s.depth_bits, px.ring)) << 32u;
-        atomicMax(&framebuffer[px.pixel], high | u64(~slot));
-        atomicMax(&color_keys[px.pixel], high | u64(~splat_color_word(color, s)));
     }
 }

@@ -44,14 +44,16 @@ fn splat_depth(w: Work, i: u32) {
     if !s.valid || index_hidden(w.base + i) {
         return;
     }
-    for (var k = 0u; k < s.ring * s.ring; k++) {
-        let px = splat_pixel(s, k);
-        if px.pixel == NO_PIXEL {
-            continue;
-        }
-        let inv = tier_depth(~s.depth_bits, px.ring);
-        if atomicLoad(&depth_buffer[px.pixel]) < inv {
-            atomicMax(&depth_buffer[px.pixel], inv);
+    for (var dy = 0u; dy < s.ring; dy++) {
+        for (var dx = 0u; dx < s.ring; dx++) {
+            let px = splat_pixel(s, vec2<u32>(dx, dy));
+            if px.pixel == NO_PIXEL {
+                continue;
+            }
+            let inv = tier_depth(~s.depth_bits, px.ring);
+            if atomicLoad(&depth_buffer[px.pixel]) < inv {
+                atomicMax(&depth_buffer[px.pixel], inv);
+            }
         }
     }
 }

@@ -48,24 +48,26 @@ fn splat_accumulate(w: Work, i: u32) {
     var color = 0u;
     var fetched = false;
     let depth = bitcast<f32>(s.depth_bits);
-    for (var k = 0u; k < s.ring * s.ring; k++) {
-        let px = splat_pixel(s, k);
-        if px.pixel == NO_PIXEL {
-            continue;
-        }
-        let stored = atomicLoad(&depth_buffer[px.pixel]);
-        let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
-        if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
-            continue;
-        }
-        if !fetched {
-            color = load_color(w.base + i);
-            fetched = true;
-            if class_hidden(color) {
-                return;
+    for (var dy = 0u; dy < s.ring; dy++) {
+        for (var dx = 0u; dx < s.ring; dx++) {
+            let px = splat_pixel(s, vec2<u32>(dx, dy));
+            if px.pixel == NO_PIXEL {
+                continue;
             }
+            let stored = atomicLoad(&depth_buffer[px.pixel]);
+            let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
+            if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
+                continue;
+            }
+            if !fetched {
+                color = load_color(w.base + i);
+                fetched = true;
+                if class_hidden(color) {
+                    return;
+                }
+            }
+            add_color(px.pixel, color);
         }
-        add_color(px.pixel, color);
     }
 }
 

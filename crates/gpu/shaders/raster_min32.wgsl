@@ -46,20 +46,22 @@ fn splat_color(w: Work, i: u32) {
     }
     var value = 0u;
     var fetched = false;
-    for (var k = 0u; k < s.ring * s.ring; k++) {
-        let px = splat_pixel(s, k);
-        if px.pixel == NO_PIXEL
-            || atomicLoad(&depth_buffer[px.pixel]) != tier_depth(~s.depth_bits, px.ring) {
-            continue;
-        }
-        if !fetched {
-            let color = load_color(w.base + i);
-            if class_hidden(color) {
-                return;
+    for (var dy = 0u; dy < s.ring; dy++) {
+        for (var dx = 0u; dx < s.ring; dx++) {
+            let px = splat_pixel(s, vec2<u32>(dx, dy));
+            if px.pixel == NO_PIXEL
+                || atomicLoad(&depth_buffer[px.pixel]) != tier_depth(~s.depth_bits, px.ring) {
+                continue;
             }
-            value = select(splat_color_word(color, s), w.slot * PAGE_SIZE + i, PICK);
-            fetched = true;
+            if !fetched {
+                let color = load_color(w.base + i);
+                if class_hidden(color) {
+                    return;
+                }
+                value = select(splat_color_word(color, s), w.slot * PAGE_SIZE + i, PICK);
+                fetched = true;
+            }
+            atomicMax(&color_buffer[px.pixel], ~value);
         }
-        atomicMax(&color_buffer[px.pixel], ~value);
     }
 }

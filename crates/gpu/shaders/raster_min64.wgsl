@@ -58,25 +58,27 @@ fn draw_splat(w: Work, i: u32) {
     }
     var color = 0u;
     var fetched = false;
-    for (var k = 0u; k < s.ring * s.ring; k++) {
-        let px = splat_pixel(s, k);
-        if px.pixel == NO_PIXEL {
-            continue;
-        }
-        let inv = tier_depth(~s.depth_bits, px.ring);
-        if EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv {
-            continue;
-        }
-        if !fetched {
-            color = load_color(w.base + i);
-            fetched = true;
-            if class_hidden(color) {
-                return;
+    for (var dy = 0u; dy < s.ring; dy++) {
+        for (var dx = 0u; dx < s.ring; dx++) {
+            let px = splat_pixel(s, vec2<u32>(dx, dy));
+            if px.pixel == NO_PIXEL {
+                continue;
             }
+            let inv = tier_depth(~s.depth_bits, px.ring);
+            if EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv {
+                continue;
+            }
+            if !fetched {
+                color = load_color(w.base + i);
+                fetched = true;
+                if class_hidden(color) {
+                    return;
+                }
+            }
+            let shown = splat_color_word(color, s);
+            let low = select(shown, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+            atomicMax(&framebuffer[px.pixel], (u64(inv) << 32u) | u64(~low));
+            keep_color_key(px.pixel, (u64(inv) << 32u) | u64(~shown));
         }
-        let shown = splat_color_word(color, s);
-        let low = select(shown, w.slot * PAGE_SIZE + i, INDEX_KEYS);
-        atomicMax(&framebuffer[px.pixel], (u64(inv) << 32u) | u64(~low));
-        keep_color_key(px.pixel, (u64(inv) << 32u) | u64(~shown));
     }
 }

@@ -61,36 +61,48 @@ fn raster(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     }
 }
 
-// One point per lane (or none): lanes of the splat `i` (past w.end: none) walk its pixels.
+// One point per lane (or none): lanes walk their splat's pixels in step, as many steps as the
+// largest splat of the subgroup. As for single pixels, a lane fetches its colour only once a
+// pixel passes the early depth test (most do not, in a dense view).
 fn raster_splat(w: Work, i: u32) {
     var s: Splat;
     s.valid = false;
-    var color = 0u;
     if i < w.end {
         s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
-        if s.valid {
-            color = load_color(w.base + i);
-            s.valid = !class_hidden(color);
-            color = splat_color_word(color, s);
-        }
     }
-    let low = select(color, w.slot * PAGE_SIZE + i, INDEX_KEYS);
     let n = select(0u, s.ring * s.ring, s.valid);
     let steps = subgroupMax(n);
+    var fetched = false;
+    var hidden = false;
+    var shown = 0u;
+    var low = 0u;
+    var d = vec2<u32>(0u);
     for (var j = 0u; j < steps; j++) {
         var pixel = NO_PIXEL;
         var inv_depth = 0u;
-        if j < n {
-            let px = splat_pixel(s, j);
-            if px.pixel != NO_PIXEL {
-                let inv = tier_depth(~s.depth_bits, px.ring);
-                if !(EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv) {
+        if j < n && !hidden {
+            let px = splat_pixel(s, d);
+            let inv = tier_depth(~s.depth_bits, px.ring);
+            if px.pixel != NO_PIXEL
+                && !(EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv) {
+                if !fetched {
+                    let color = load_color(w.base + i);
+                    fetched = true;
+                    hidden = class_hidden(color);
+                    shown = splat_color_word(color, s);
+                    low = select(shown, w.slot * PAGE_SIZE + i, INDEX_KEYS);
+                }
+                if !hidden {
                     pixel = px.pixel;
                     inv_depth = inv;
                 }
             }
+            d.x += 1u;
+            if d.x == s.ring {
+                d = vec2<u32>(0u, d.y + 1u);
+            }
         }
-        reduce_and_write(pixel, inv_depth, low, color);
+        reduce_and_write(pixel, inv_depth, low, shown);
     }
 }
 
