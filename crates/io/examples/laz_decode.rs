@@ -4,6 +4,10 @@
 //!
 //!     cargo run --release -p pointlet-io --example laz_decode -- FILE.laz [ROUNDS]
 //!     cargo run --release -p pointlet-io --example laz_decode -- --generate POINTS FILE.laz
+//!     cargo run --release -p pointlet-io --example laz_decode -- FILE.laz ROUNDS ours|laz
+//!
+//! The last form only decompresses, on one thread, with one decoder (for profilers and
+//! `time`).
 
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::las::raw::{Codec, RawChunks, RawDecoder};
@@ -21,6 +25,24 @@ fn main() -> Result<(), Error> {
         [flag, points, path] if flag == "--generate" => generate(points.parse()?, Path::new(path)),
         [path] => bench(Path::new(path), 3),
         [path, rounds] => bench(Path::new(path), rounds.parse()?),
+        [path, rounds, codec] => {
+            let codec = match codec.as_str() {
+                "ours" => Codec::Ours,
+                "laz" => Codec::LazCrate,
+                _ => return Err("the decoder is ours or laz".into()),
+            };
+            let chunks = RawChunks::open(Path::new(path))?;
+            let (mut d, mut out) = (RawDecoder::default(), Vec::new());
+            for _ in 0..rounds.parse::<usize>()? {
+                let t = Instant::now();
+                for i in 0..chunks.len() {
+                    chunks.decompress(i, codec, &mut d, &mut out)?;
+                }
+                let r = chunks.points() as f64 / t.elapsed().as_secs_f64();
+                println!("{codec:?}: {:.2} M points/s", r / 1e6);
+            }
+            Ok(())
+        }
         _ => Err(
             "usage: laz_decode FILE.laz [ROUNDS] | laz_decode --generate POINTS FILE.laz".into(),
         ),

@@ -14,8 +14,6 @@
 //! operation uses wrapping arithmetic and clamped table indices, so damaged bytes decode to
 //! garbage but can never panic, divide by zero or loop forever.
 
-/// Below this interval length the decoder shifts in another byte.
-const MIN_LENGTH: u32 = 1 << 24;
 /// Bits of the interval length dropped before multiplying with a symbol model's distribution.
 const SYMBOL_SHIFT: u32 = 15;
 /// A symbol model's counts are halved once they sum to more than this.
@@ -43,9 +41,8 @@ impl<'a> Arith<'a> {
             value: 0,
             length: u32::MAX,
         };
-        for _ in 0..4 {
-            a.value = (a.value << 8) | a.byte();
-        }
+        a.value = a.peek4();
+        a.pos = 4;
         a
     }
 
@@ -55,35 +52,37 @@ impl<'a> Arith<'a> {
         self.pos > self.data.len()
     }
 
-    #[inline(always)]
-    fn byte(&mut self) -> u32 {
-        let b = match self.data.get(self.pos) {
-            Some(b) => u32::from(*b),
-            None => 0,
-        };
-        self.pos += 1;
-        b
-    }
-
+    /// Shifts in as many bytes (0–3) as bring the length back to at least 2^24, without a
+    /// branch: whether a decision needs more bytes is as random as the data.
     #[inline(always)]
     fn renorm(&mut self) {
-        if self.length < MIN_LENGTH {
-            self.refill();
+        // A length of zero cannot arise (every decision leaves at least one unit); were it to,
+        // 1 keeps the shifts in range.
+        let length = self.length.max(1);
+        let shift = (length.leading_zeros() / 8) * 8;
+        let next = self.peek4();
+        self.value = ((u64::from(self.value) << shift) | (u64::from(next) >> (32 - shift))) as u32;
+        self.length = length << shift;
+        self.pos += (shift / 8) as usize;
+    }
+
+    /// The next four bytes, big-endian, zeros past the end.
+    #[inline(always)]
+    fn peek4(&self) -> u32 {
+        match self.data.get(self.pos..self.pos + 4) {
+            Some(&[a, b, c, d]) => u32::from_be_bytes([a, b, c, d]),
+            _ => self.peek4_at_end(),
         }
     }
 
+    #[cold]
     #[inline(never)]
-    fn refill(&mut self) {
-        // A length of zero cannot arise (every decision leaves at least one unit), but if it
-        // did the loop below would never end: treat it as running out of data.
-        if self.length == 0 {
-            self.length = u32::MAX;
-            self.pos = self.pos.max(self.data.len() + 1);
+    fn peek4_at_end(&self) -> u32 {
+        let mut v = 0;
+        for k in 0..4 {
+            v = (v << 8) | u32::from(self.data.get(self.pos + k).copied().unwrap_or(0));
         }
-        while self.length < MIN_LENGTH {
-            self.value = (self.value << 8) | self.byte();
-            self.length <<= 8;
-        }
+        v
     }
 
     /// One binary decision with an adaptive bit model.
@@ -113,22 +112,19 @@ impl<'a> Arith<'a> {
         let unit = self.length >> SYMBOL_SHIFT;
         let (sym, x, y);
         if T > 0 {
+            // The symbol is the last whose cumulative count is at most `dv`: the table gives
+            // the symbol at the start of dv's cell, rarely a boundary or two below dv.
             let dv = self.value / unit;
-            let t = ((dv >> Model::<N, T>::SHIFT) as usize).min(T - 2);
-            let mut s = m.table[t];
-            let mut n = m.table[t + 1] + 1;
-            while n > s + 1 {
-                let k = (s + n) >> 1;
-                if m.dist[k as usize] > dv {
-                    n = k;
-                } else {
-                    s = k;
-                }
+            let cell = ((dv >> Model::<N, T>::SHIFT) as usize).min(T - 1);
+            let mut s = usize::from(m.table[cell]);
+            let mut next = if s + 1 < N { m.dist[s + 1] } else { u32::MAX };
+            while next <= dv {
+                s += 1;
+                next = if s + 1 < N { m.dist[s + 1] } else { u32::MAX };
             }
-            let s = s as usize;
             x = m.dist[s].wrapping_mul(unit);
             y = if s + 1 < N {
-                m.dist[s + 1].wrapping_mul(unit)
+                next.wrapping_mul(unit)
             } else {
                 full
             };
@@ -230,21 +226,25 @@ impl BitModel {
     }
 }
 
-/// Bits of the decoding table of a model of `n` symbols (models of 16 or fewer have none).
+/// Bits of the decoding table of a model of `n` symbols: fine enough that a cell rarely holds
+/// the boundary between two likely symbols (models of 16 or fewer have none).
 const fn table_bits(n: usize) -> u32 {
-    let mut bits = 3;
-    while n > 1 << (bits + 2) {
-        bits += 1;
+    if n <= 64 {
+        7
+    } else if n <= 256 {
+        9
+    } else {
+        10
     }
-    bits
 }
 
-/// Entries of the decoding table of a model of `n` symbols: 2^bits and two sentinels.
+/// Entries of the decoding table of a model of `n` symbols: one per cell and one for the
+/// values at and beyond the top of the distribution.
 pub(super) const fn table_len(n: usize) -> usize {
     if n <= 16 {
         0
     } else {
-        (1 << table_bits(n)) + 2
+        (1 << table_bits(n)) + 1
     }
 }
 
@@ -254,7 +254,8 @@ pub(super) struct Model<const N: usize, const T: usize> {
     /// Cumulative distribution, scaled to 2^15.
     dist: [u32; N],
     count: [u32; N],
-    table: [u32; T],
+    /// The symbol at the start of each cell of 2^15 >> table_bits(N) distribution values.
+    table: [u16; T],
     total: u32,
     cycle: u32,
     until: u32,
@@ -295,24 +296,26 @@ impl<const N: usize, const T: usize> Model<N, T> {
             }
         }
         let scale = 0x8000_0000u32 / self.total;
-        let (mut sum, mut s, mut k) = (0u32, 0usize, 0usize);
+        let (mut sum, mut k) = (0u32, 0usize);
         while k < N {
             self.dist[k] = (scale * sum) >> (31 - SYMBOL_SHIFT);
             sum += self.count[k];
-            if T > 0 {
-                let w = (self.dist[k] >> Self::SHIFT) as usize;
-                while s < w {
-                    s += 1;
-                    self.table[s] = (k as u32).wrapping_sub(1);
-                }
-            }
             k += 1;
         }
         if T > 0 {
-            self.table[0] = 0;
-            while s + 1 < T {
-                s += 1;
-                self.table[s] = N as u32 - 1;
+            // Cell c holds the last symbol whose distribution starts at or before c << SHIFT.
+            let (mut cell, mut k) = (0usize, 1usize);
+            while k < N {
+                let first = ((self.dist[k] + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
+                while cell < first {
+                    self.table[cell] = (k - 1) as u16;
+                    cell += 1;
+                }
+                k += 1;
+            }
+            while cell < T {
+                self.table[cell] = (N - 1) as u16;
+                cell += 1;
             }
         }
         let most = (N as u32 + 6) << 3;

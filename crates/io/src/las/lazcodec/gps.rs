@@ -63,7 +63,7 @@ impl Gps {
     }
 
     /// Decodes the next time into `out`; false when the data switched sequences too often.
-    #[inline(always)]
+    #[inline(never)]
     pub fn decode(&mut self, ac: &mut Arith, out: &mut [u8; Self::LEN]) -> bool {
         let mut switches = 0;
         while let Some(to) = self.step(ac) {
@@ -78,7 +78,6 @@ impl Gps {
     }
 
     /// Decodes one time in the current sequence, or returns the switch to another one.
-    #[inline(always)]
     fn step(&mut self, ac: &mut Arith) -> Option<usize> {
         let last = self.last & 3;
         if self.steps[last] == 0 {

@@ -79,8 +79,9 @@ impl<const K: usize, const KT: usize> IntDecoder<K, KT> {
     }
 
     /// The value predicted as `pred`, in context `ctx` (below the context count given to
-    /// [`Self::new`]).
-    #[inline(always)]
+    /// [`Self::new`]). Not inlined: one copy per field width keeps the point loop small
+    /// enough for the instruction cache.
+    #[inline(never)]
     pub fn decode(&mut self, ac: &mut Arith, pred: i32, ctx: usize) -> i32 {
         let k = match self.magnitude.get_mut(ctx) {
             Some(m) => ac.symbol(m),
