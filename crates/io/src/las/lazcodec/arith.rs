@@ -117,12 +117,20 @@ impl<'a> Arith<'a> {
             let dv = self.value / unit;
             let cell = ((dv >> Model::<N, T>::SHIFT) as usize).min(T - 1);
             let mut s = usize::from(m.table[cell]);
-            let mut next = if s + 1 < N { m.dist[s + 1] } else { u32::MAX };
+            let mut next = if s + 1 < N {
+                u32::from(m.dist[s + 1])
+            } else {
+                u32::MAX
+            };
             while next <= dv {
                 s += 1;
-                next = if s + 1 < N { m.dist[s + 1] } else { u32::MAX };
+                next = if s + 1 < N {
+                    u32::from(m.dist[s + 1])
+                } else {
+                    u32::MAX
+                };
             }
-            x = m.dist[s].wrapping_mul(unit);
+            x = u32::from(m.dist[s]).wrapping_mul(unit);
             y = if s + 1 < N {
                 next.wrapping_mul(unit)
             } else {
@@ -133,7 +141,7 @@ impl<'a> Arith<'a> {
             let (mut s, mut n, mut lo, mut hi) = (0usize, N, 0u32, full);
             let mut k = N >> 1;
             loop {
-                let z = unit.wrapping_mul(m.dist[k]);
+                let z = unit.wrapping_mul(u32::from(m.dist[k]));
                 if z > self.value {
                     n = k;
                     hi = z;
@@ -230,11 +238,11 @@ impl BitModel {
 /// the boundary between two likely symbols (models of 16 or fewer have none).
 const fn table_bits(n: usize) -> u32 {
     if n <= 64 {
-        7
+        6
     } else if n <= 256 {
-        9
+        8
     } else {
-        10
+        9
     }
 }
 
@@ -252,8 +260,10 @@ pub(super) const fn table_len(n: usize) -> usize {
 #[derive(Clone, Debug)]
 pub(super) struct Model<const N: usize, const T: usize> {
     /// Cumulative distribution, scaled to 2^15.
-    dist: [u32; N],
-    count: [u32; N],
+    dist: [u16; N],
+    /// Symbol counts: at most 2^15 plus one update cycle, as the counts are halved when
+    /// their sum passes 2^15.
+    count: [u16; N],
     /// The symbol at the start of each cell of 2^15 >> table_bits(N) distribution values.
     table: [u16; T],
     total: u32,
@@ -290,23 +300,24 @@ impl<const N: usize, const T: usize> Model<N, T> {
             self.total = 0;
             let mut k = 0;
             while k < N {
-                self.count[k] = (self.count[k] + 1) >> 1;
-                self.total += self.count[k];
+                self.count[k] = self.count[k].div_ceil(2);
+                self.total += self.count[k] as u32;
                 k += 1;
             }
         }
         let scale = 0x8000_0000u32 / self.total;
         let (mut sum, mut k) = (0u32, 0usize);
         while k < N {
-            self.dist[k] = (scale * sum) >> (31 - SYMBOL_SHIFT);
-            sum += self.count[k];
+            self.dist[k] = ((scale * sum) >> (31 - SYMBOL_SHIFT)) as u16;
+            sum += self.count[k] as u32;
             k += 1;
         }
         if T > 0 {
             // Cell c holds the last symbol whose distribution starts at or before c << SHIFT.
             let (mut cell, mut k) = (0usize, 1usize);
             while k < N {
-                let first = ((self.dist[k] + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
+                let first =
+                    ((self.dist[k] as u32 + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
                 while cell < first {
                     self.table[cell] = (k - 1) as u16;
                     cell += 1;

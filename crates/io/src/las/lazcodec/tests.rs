@@ -5,7 +5,7 @@
 //! panic or a hang.
 
 use super::{ChunkDecoder, Items};
-use crate::las::laz::{chunks_of, RawChunkList};
+use crate::las::laz::{chunks_of, uses_our_decoder, RawChunkList};
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::{LazItemRecordBuilder, LazItemType, LazVlr, LazVlrBuilder};
 use std::io::Cursor;
@@ -339,6 +339,13 @@ fn every_laz_file_of_testdata_with_these_items_matches_the_laz_crate() {
                     .to_string_lossy()
                     .into_owned(),
             );
+            assert!(uses_our_decoder(&path).expect("open"), "{}", path.display());
+        } else {
+            assert!(
+                !uses_our_decoder(&path).expect("open"),
+                "{}",
+                path.display()
+            );
         }
     }
     assert_eq!(checked, ["autzen_trim.laz", "plane.laz", "simple.laz"]);
@@ -546,5 +553,44 @@ fn random_and_flipped_bytes_never_panic() {
             damaged(&vlr, &mut ours, &data, 50);
             let _ = ours.decompress(&data, &mut vec![0; 100_000 * vlr.items_size() as usize]);
         }
+    }
+}
+
+/// Decoding speed of single models (run with `--release --ignored --nocapture`).
+#[test]
+#[ignore]
+fn symbol_speed() {
+    use super::arith::{Arith, ByteModel, Model};
+    use laz::encoders::ArithmeticEncoder;
+    use laz::models::ArithmeticModelBuilder;
+    let mut rng = Rng(1);
+    let n = 4_000_000;
+    for spread in [1u64, 4, 16, 64, 256] {
+        let syms: Vec<u32> = (0..n)
+            .map(|_| ((rng.below(spread) + rng.below(spread)) % 256) as u32)
+            .collect();
+        let mut enc = ArithmeticEncoder::new(Cursor::new(Vec::new()));
+        let mut m = ArithmeticModelBuilder::new(256)
+            .with_compression(true)
+            .build();
+        for s in &syms {
+            enc.encode_symbol(&mut m, *s).expect("encode");
+        }
+        enc.done().expect("done");
+        let bytes = enc.into_inner().into_inner();
+        let t = std::time::Instant::now();
+        let mut ac = Arith::new(&bytes);
+        let mut m: Box<ByteModel> = Box::new(Model::INIT);
+        let mut sum = 0u64;
+        for _ in 0..n {
+            sum += u64::from(ac.symbol(&mut m));
+        }
+        let ns = t.elapsed().as_secs_f64() * 1e9 / n as f64;
+        let want: u64 = syms.iter().map(|s| u64::from(*s)).sum();
+        assert_eq!(sum, want);
+        println!(
+            "256 symbols, spread {spread}: {ns:.2} ns per symbol, {:.2} bits",
+            bytes.len() as f64 * 8.0 / n as f64
+        );
     }
 }
