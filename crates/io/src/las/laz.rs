@@ -294,8 +294,9 @@ impl PartedSource for LazReader {
 
 impl ChunkCodec {
     /// Decompresses chunk `index` (`c`, whose bytes are `compressed`) into `out`, exactly its
-    /// records, after checking what the `laz` crate would trust; a panic of the crate on
-    /// damaged data becomes an error naming the file, the chunk and its offset.
+    /// records, with our decoder or (after checking what the `laz` crate would trust) the
+    /// crate; an error, or a panic of the crate on damaged data, becomes an error naming the
+    /// file, the chunk and its offset.
     fn decompress(
         &self,
         path: &Path,
@@ -304,21 +305,10 @@ impl ChunkCodec {
         compressed: &[u8],
         out: &mut [u8],
     ) -> Result<(), IoError> {
-        let entry = [ChunkTableEntry {
-            point_count: c.points,
-            byte_count: c.bytes,
-        }];
-        let decompressed = if let Some(items) = self.ours {
-            self.decompress_ours(items, compressed, out)
-        } else if self.layered {
-            check_layered_chunk(compressed, self.vlr.items(), self.record_len, c.points)
-        } else {
-            Ok(())
-        }
-        .and_then(|()| {
-            guarded(|| laz::par_decompress(compressed, out, &self.vlr, &entry))?
-                .map_err(|e| e.to_string())
-        });
+        let decompressed = match self.ours {
+            Some(items) => self.decompress_ours(items, compressed, out),
+            None => self.decompress_laz_crate(c, compressed, out),
+        };
         decompressed.map_err(|m| {
             IoError::invalid(
                 path,
@@ -338,6 +328,26 @@ fn laz_crate_forced() -> bool {
 }
 
 impl ChunkCodec {
+    /// Decompresses a chunk with the `laz` crate, its panics caught (see [`guarded`]).
+    fn decompress_laz_crate(
+        &self,
+        c: Chunk,
+        compressed: &[u8],
+        out: &mut [u8],
+    ) -> Result<(), String> {
+        #[cfg(test)]
+        LAZ_CRATE_CHUNKS.with(|n| n.set(n.get() + 1));
+        if self.layered {
+            check_layered_chunk(compressed, self.vlr.items(), self.record_len, c.points)?;
+        }
+        let entry = [ChunkTableEntry {
+            point_count: c.points,
+            byte_count: c.bytes,
+        }];
+        guarded(|| laz::par_decompress(compressed, out, &self.vlr, &entry))?
+            .map_err(|e| e.to_string())
+    }
+
     /// Decompresses a chunk with one of our decoders, reusing an idle one when there is one.
     fn decompress_ours(
         &self,
@@ -354,6 +364,12 @@ impl ChunkCodec {
         idle().push(decoder);
         result
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Chunks this thread handed to the `laz` crate (tests check which decoder ran).
+    pub(super) static LAZ_CRATE_CHUNKS: Cell<usize> = const { Cell::new(0) };
 }
 
 thread_local! {

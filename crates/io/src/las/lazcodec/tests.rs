@@ -352,6 +352,36 @@ fn every_laz_file_of_testdata_with_these_items_matches_the_laz_crate() {
 }
 
 #[test]
+fn the_reader_decompresses_with_one_decoder_only() {
+    use crate::las::laz::LAZ_CRATE_CHUNKS;
+    for (name, ours) in [
+        ("autzen_trim.laz", true),
+        ("simple.laz", true),
+        ("simple.copc.laz", false),
+    ] {
+        let r = crate::open(&testdata(name)).expect("open");
+        let parts = r.parted().expect("LAZ comes in parts");
+        let before = LAZ_CRATE_CHUNKS.with(|n| n.get());
+        let mut batch = pointlet_core::PointBatch::new(r.meta().layout);
+        let mut scratch = Vec::new();
+        let mut points = 0;
+        for i in 0..parts.part_sizes().len() {
+            parts
+                .decode_part(i, &mut batch, &mut scratch)
+                .expect("decode");
+            points += batch.len() as u64;
+        }
+        assert_eq!(points, r.meta().point_count, "{name}");
+        let crate_chunks = LAZ_CRATE_CHUNKS.with(|n| n.get()) - before;
+        let expect = if ours { 0 } else { parts.part_sizes().len() };
+        assert_eq!(
+            crate_chunks, expect,
+            "{name}: chunks the laz crate decompressed"
+        );
+    }
+}
+
+#[test]
 fn files_our_writer_makes_in_formats_0_to_3_match_the_laz_crate() {
     use crate::generate::{SceneConfig, SceneGenerator};
     use crate::writer::{LasWriter, LasWriterConfig};
