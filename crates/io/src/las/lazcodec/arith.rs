@@ -2,12 +2,15 @@
 //!
 //! The decoder keeps a 32-bit `value` (where the code lies) and `length` (how wide the current
 //! interval is); each decision narrows the interval and, once it is shorter than 2^24, shifts
-//! in another byte. Symbols come from adaptive frequency models: [`BitModel`] for binary
-//! decisions, [`Model`] for alphabets of `N` symbols, whose cumulative distribution is
-//! recomputed after a growing number of decoded symbols (the update cycle). Models of more
-//! than 16 symbols also keep a lookup table (`T` entries) from the top bits of `value / length`
-//! to a narrow range of candidate symbols; smaller ones are searched by bisection with
-//! multiplications only. Both searches give the same symbol, the one LASzip's encoder wrote.
+//! in the 1–3 bytes that make it long enough again (at once, without a branch). Symbols come
+//! from adaptive frequency models: [`BitModel`] for binary decisions, [`Model`] for alphabets
+//! of `N` symbols, whose cumulative distribution (scaled to 2^15) is recomputed after a
+//! growing number of decoded symbols (the update cycle), exactly as LASzip does. The decoded
+//! symbol is the last whose cumulative count is at most `value / (length >> 15)`. Models of
+//! more than 16 symbols find it through our own table (`T` entries, finer than LASzip's),
+//! which gives the symbol at the start of the quotient's cell, then step over the rare
+//! boundaries inside the cell; smaller models search by bisection with multiplications only.
+//! Any search for that symbol gives the one LASzip's encoder wrote.
 //!
 //! Reading past the end of the bytes yields zeros and moves the position on regardless, so
 //! [`Arith::overrun`] tells the caller, once per point, that the chunk was too short. Every

@@ -31,7 +31,7 @@ use laz::{LazItem, LazItemType};
 use point10::Point10;
 use rgb::Rgb;
 
-/// More extra bytes than this are left to the `laz` crate: each takes a 2 KiB model per
+/// More extra bytes than this are left to the `laz` crate: each takes a 1.5 KiB model per
 /// decoder, and real files have a few.
 const MAX_EXTRA_BYTES: u16 = 1024;
 

@@ -81,8 +81,13 @@ impl RawChunks {
 }
 
 /// For the fuzz target: the first byte picks an item set (format 0–3, 0–3 extra bytes) and
-/// how many points to claim; our decoder decompresses the rest.
+/// how many points to claim; our decoder decompresses the rest. Decoders are kept per item
+/// set and thread, so the fuzzer also checks that nothing leaks from one chunk to the next.
 pub fn fuzz_chunk(data: &[u8]) -> Result<(), String> {
+    thread_local! {
+        static DECODERS: std::cell::RefCell<Vec<Option<Box<ChunkDecoder>>>> =
+            std::cell::RefCell::new((0..16).map(|_| None).collect());
+    }
     let Some((&pick, chunk)) = data.split_first() else {
         return Ok(());
     };
@@ -93,5 +98,13 @@ pub fn fuzz_chunk(data: &[u8]) -> Result<(), String> {
     };
     let points = 1 + usize::from(pick >> 4) * 97;
     let mut out = vec![0; points * items.record_len()];
-    ChunkDecoder::new(items).decompress(chunk, &mut out)
+    DECODERS.with(|d| {
+        let mut d = d.borrow_mut();
+        match d.get_mut(usize::from(pick & 15)) {
+            Some(slot) => slot
+                .get_or_insert_with(|| Box::new(ChunkDecoder::new(items)))
+                .decompress(chunk, &mut out),
+            None => Err("no decoder slot".into()),
+        }
+    })
 }
