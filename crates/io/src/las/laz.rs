@@ -58,9 +58,13 @@ struct ChunkCodec {
     total: u64,
     /// The item set when our own decoder handles it; otherwise the `laz` crate does.
     ours: Option<Items>,
-    /// Our decoders not in use, kept for the next chunks (one per thread at most).
-    idle: Mutex<Vec<Box<ChunkDecoder>>>,
 }
+
+/// Our decoders not in use, for the next chunk of any file with the same items: about one per
+/// thread and item set, so reading many files allocates and initializes them only once.
+static IDLE_DECODERS: Mutex<Vec<Box<ChunkDecoder>>> = Mutex::new(Vec::new());
+/// Idle decoders kept at most (each takes a few hundred KiB).
+const MAX_IDLE_DECODERS: usize = 64;
 
 pub(super) struct LazReader {
     path: PathBuf,
@@ -113,7 +117,6 @@ impl LazReader {
                 layered: format.extended,
                 record_len: u64::from(h.point_record_length),
                 total: h.point_count,
-                idle: Mutex::new(Vec::new()),
             },
             decoder: decoder(path, &h)?,
             part_sizes: chunks.iter().map(|c| c.points).collect(),
@@ -355,13 +358,20 @@ impl ChunkCodec {
         compressed: &[u8],
         out: &mut [u8],
     ) -> Result<(), String> {
-        let idle = || self.idle.lock().unwrap_or_else(|p| p.into_inner());
-        let mut decoder = idle()
-            .pop()
-            .filter(|d| d.items() == items)
-            .unwrap_or_else(|| Box::new(ChunkDecoder::new(items)));
+        let idle = || IDLE_DECODERS.lock().unwrap_or_else(|p| p.into_inner());
+        let reused = {
+            let mut idle = idle();
+            let found = idle.iter().rposition(|d| d.items() == items);
+            found.map(|i| idle.swap_remove(i))
+        };
+        let mut decoder = reused.unwrap_or_else(|| Box::new(ChunkDecoder::new(items)));
         let result = decoder.decompress(compressed, out);
-        idle().push(decoder);
+        let mut idle = idle();
+        if idle.len() == MAX_IDLE_DECODERS {
+            // Keep the most recent ones: drop the oldest.
+            idle.remove(0);
+        }
+        idle.push(decoder);
         result
     }
 }

@@ -96,31 +96,41 @@ impl Median5 {
     }
 }
 
-/// 256 models indexed by a previous byte, each made fresh on its first use in a chunk.
+/// 256 models indexed by a previous byte, each made fresh on its first use in a chunk. Only
+/// the contexts a chunk uses take memory (files use a few), kept from chunk to chunk.
 struct ByteContexts {
-    models: Box<[ByteModel]>,
-    ready: [bool; 256],
+    /// Where each context's model is in `models`; [`NO_MODEL`] before its first use.
+    slot: [u16; 256],
+    models: Vec<ByteModel>,
 }
+
+const NO_MODEL: u16 = u16::MAX;
 
 impl ByteContexts {
     fn new() -> Self {
         ByteContexts {
-            models: vec![ByteModel::INIT; 256].into_boxed_slice(),
-            ready: [false; 256],
+            slot: [NO_MODEL; 256],
+            models: Vec::new(),
         }
+    }
+
+    /// Forgets every context's model (the memory stays for the next chunk).
+    fn reset(&mut self) {
+        self.slot = [NO_MODEL; 256];
+        self.models.clear();
     }
 
     #[inline(always)]
     fn decode(&mut self, ac: &mut Arith, ctx: u8) -> u8 {
-        let i = usize::from(ctx);
-        let Some(m) = self.models.get_mut(i) else {
-            return 0;
-        };
-        if !self.ready[i] {
-            *m = ByteModel::INIT;
-            self.ready[i] = true;
+        let ctx = usize::from(ctx);
+        if self.slot[ctx] == NO_MODEL {
+            self.slot[ctx] = self.models.len() as u16;
+            self.models.push(ByteModel::INIT);
         }
-        ac.symbol(m) as u8
+        match self.models.get_mut(usize::from(self.slot[ctx])) {
+            Some(m) => ac.symbol(m) as u8,
+            None => 0,
+        }
     }
 }
 
@@ -202,9 +212,9 @@ impl Point10 {
         self.last_z = [0; 8];
         self.changed = Model::INIT;
         self.scan_angle_step = [ByteModel::INIT, ByteModel::INIT];
-        self.returns_byte.ready = [false; 256];
-        self.classification_byte.ready = [false; 256];
-        self.user_byte.ready = [false; 256];
+        self.returns_byte.reset();
+        self.classification_byte.reset();
+        self.user_byte.reset();
         self.ic_intensity.reset();
         self.ic_source_id.reset();
         self.ic_dx.reset();
