@@ -295,6 +295,12 @@ impl PartedSource for LazReader {
     }
 }
 
+/// `POINTLET_LAZ_DECODER=laz-crate` sends every LAZ file through the `laz` crate: for
+/// comparing the decoders on whole loads, and as a way out should ours ever misread a file.
+fn laz_crate_forced() -> bool {
+    std::env::var_os("POINTLET_LAZ_DECODER").is_some_and(|v| v == "laz-crate")
+}
+
 impl ChunkCodec {
     /// Decompresses chunk `index` (`c`, whose bytes are `compressed`) into `out`, exactly its
     /// records, with our decoder or (after checking what the `laz` crate would trust) the
@@ -322,15 +328,7 @@ impl ChunkCodec {
             )
         })
     }
-}
 
-/// `POINTLET_LAZ_DECODER=laz-crate` sends every LAZ file through the `laz` crate: for
-/// comparing the decoders on whole loads, and as a way out should ours ever misread a file.
-fn laz_crate_forced() -> bool {
-    std::env::var_os("POINTLET_LAZ_DECODER").is_some_and(|v| v == "laz-crate")
-}
-
-impl ChunkCodec {
     /// Decompresses a chunk with the `laz` crate, its panics caught (see [`guarded`]).
     fn decompress_laz_crate(
         &self,
