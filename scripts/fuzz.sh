@@ -31,6 +31,12 @@ for f in testdata/*.las testdata/*.laz; do
     if [ "$(stat -c %s "$f")" -le 70000 ]; then cp "$f" "$corpus/las_file/$name"; fi
 done
 
+# laz_chunk: a selector byte (0x13: format 3, 1 + 97 points claimed), then the first chunk of
+# simple.laz, 8 bytes after the point data offset (a u32 at header byte 96).
+seed laz_chunk
+at=$(od -An -tu4 -j96 -N4 testdata/simple.laz | tr -d ' ')
+{ printf '\x13'; tail -c +$((at + 9)) testdata/simple.laz | head -c 8192; } > "$corpus/laz_chunk/simple"
+
 seed store_reader
 if [ ! -e "$corpus/store_reader/generated.pointlet" ]; then
     cargo run --quiet -p pointlet -- generate --points 300 --pointlets 2 \

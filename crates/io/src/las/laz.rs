@@ -1,7 +1,14 @@
 //! LAZ and COPC (LAZ 1.4 with variable-size chunks): the chunk table is read and checked when
 //! the file opens; reading then decompresses a group of chunks at a time, in parallel on
-//! rayon's pool through the `laz` crate, and hands the records out batch by batch. As parts
-//! (see [`PartedSource`]), each chunk is read and decompressed on its own, from any thread.
+//! rayon's pool, and hands the records out batch by batch. As parts (see [`PartedSource`]),
+//! each chunk is read and decompressed on its own, from any thread.
+//!
+//! Chunks of the point-wise compressor with the version 2 items of formats 0–3 (and extra
+//! bytes) go through our own decoder ([`super::lazcodec`]), which reuses its models from
+//! chunk to chunk and decodes about 1.4 times as fast on one core; every other item set
+//! (version 1 items, wave packets, the layered items of formats 6–10) goes through the `laz`
+//! crate. Which one is decided per file when it opens (`POINTLET_LAZ_DECODER=laz-crate`
+//! forces the crate).
 //!
 //! Everything the `laz` crate would trust blindly is checked first: the LASzip items against
 //! the point format, every chunk's range inside the file, point counts against the header, and
@@ -11,6 +18,7 @@
 //! and reported as errors (see [`guarded`]).
 
 use super::header::LasHeader;
+use super::lazcodec::{ChunkDecoder, Items};
 use super::record::{Decoder, PointFormat};
 use super::{batch_points, decoder, read_exact_at};
 use crate::{IoError, PointReader};
@@ -23,7 +31,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
+use std::sync::{Mutex, Once};
 
 /// Largest decompressed chunk accepted (real chunks hold 50 000–1 000 000 points).
 const MAX_CHUNK_BYTES: u64 = 512 << 20;
@@ -48,7 +56,15 @@ struct ChunkCodec {
     record_len: u64,
     /// Points the header claims, for error messages.
     total: u64,
+    /// The item set when our own decoder handles it; otherwise the `laz` crate does.
+    ours: Option<Items>,
 }
+
+/// Our decoders not in use, for the next chunk of any file with the same items: about one per
+/// thread and item set, so reading many files allocates and initializes them only once.
+static IDLE_DECODERS: Mutex<Vec<Box<ChunkDecoder>>> = Mutex::new(Vec::new());
+/// Idle decoders kept at most (each takes a few hundred KiB).
+const MAX_IDLE_DECODERS: usize = 64;
 
 pub(super) struct LazReader {
     path: PathBuf,
@@ -94,6 +110,9 @@ impl LazReader {
             meta,
             file,
             codec: ChunkCodec {
+                ours: Items::supported(vlr.items())
+                    .filter(|i| i.record_len() == usize::from(h.point_record_length))
+                    .filter(|_| !laz_crate_forced()),
                 vlr,
                 layered: format.extended,
                 record_len: u64::from(h.point_record_length),
@@ -276,10 +295,17 @@ impl PartedSource for LazReader {
     }
 }
 
+/// `POINTLET_LAZ_DECODER=laz-crate` sends every LAZ file through the `laz` crate: for
+/// comparing the decoders on whole loads, and as a way out should ours ever misread a file.
+fn laz_crate_forced() -> bool {
+    std::env::var_os("POINTLET_LAZ_DECODER").is_some_and(|v| v == "laz-crate")
+}
+
 impl ChunkCodec {
     /// Decompresses chunk `index` (`c`, whose bytes are `compressed`) into `out`, exactly its
-    /// records, after checking what the `laz` crate would trust; a panic of the crate on
-    /// damaged data becomes an error naming the file, the chunk and its offset.
+    /// records, with our decoder or (after checking what the `laz` crate would trust) the
+    /// crate; an error, or a panic of the crate on damaged data, becomes an error naming the
+    /// file, the chunk and its offset.
     fn decompress(
         &self,
         path: &Path,
@@ -288,19 +314,10 @@ impl ChunkCodec {
         compressed: &[u8],
         out: &mut [u8],
     ) -> Result<(), IoError> {
-        let entry = [ChunkTableEntry {
-            point_count: c.points,
-            byte_count: c.bytes,
-        }];
-        let decompressed = if self.layered {
-            check_layered_chunk(compressed, self.vlr.items(), self.record_len, c.points)
-        } else {
-            Ok(())
-        }
-        .and_then(|()| {
-            guarded(|| laz::par_decompress(compressed, out, &self.vlr, &entry))?
-                .map_err(|e| e.to_string())
-        });
+        let decompressed = match self.ours {
+            Some(items) => self.decompress_ours(items, compressed, out),
+            None => self.decompress_laz_crate(c, compressed, out),
+        };
         decompressed.map_err(|m| {
             IoError::invalid(
                 path,
@@ -311,6 +328,56 @@ impl ChunkCodec {
             )
         })
     }
+
+    /// Decompresses a chunk with the `laz` crate, its panics caught (see [`guarded`]).
+    fn decompress_laz_crate(
+        &self,
+        c: Chunk,
+        compressed: &[u8],
+        out: &mut [u8],
+    ) -> Result<(), String> {
+        #[cfg(test)]
+        LAZ_CRATE_CHUNKS.with(|n| n.set(n.get() + 1));
+        if self.layered {
+            check_layered_chunk(compressed, self.vlr.items(), self.record_len, c.points)?;
+        }
+        let entry = [ChunkTableEntry {
+            point_count: c.points,
+            byte_count: c.bytes,
+        }];
+        guarded(|| laz::par_decompress(compressed, out, &self.vlr, &entry))?
+            .map_err(|e| e.to_string())
+    }
+
+    /// Decompresses a chunk with one of our decoders, reusing an idle one when there is one.
+    fn decompress_ours(
+        &self,
+        items: Items,
+        compressed: &[u8],
+        out: &mut [u8],
+    ) -> Result<(), String> {
+        let idle = || IDLE_DECODERS.lock().unwrap_or_else(|p| p.into_inner());
+        let reused = {
+            let mut idle = idle();
+            let found = idle.iter().rposition(|d| d.items() == items);
+            found.map(|i| idle.swap_remove(i))
+        };
+        let mut decoder = reused.unwrap_or_else(|| Box::new(ChunkDecoder::new(items)));
+        let result = decoder.decompress(compressed, out);
+        let mut idle = idle();
+        if idle.len() == MAX_IDLE_DECODERS {
+            // Keep the most recent ones: drop the oldest.
+            idle.remove(0);
+        }
+        idle.push(decoder);
+        result
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Chunks this thread handed to the `laz` crate (tests check which decoder ran).
+    pub(super) static LAZ_CRATE_CHUNKS: Cell<usize> = const { Cell::new(0) };
 }
 
 thread_local! {
@@ -323,7 +390,7 @@ static QUIET_HOOK: Once = Once::new();
 /// decoders assert and index on the data they decode, so damaged chunks can make them panic;
 /// such panics are caught here, and the panic hook stays silent for them (other panics are
 /// reported as before).
-fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+pub(super) fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     QUIET_HOOK.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
@@ -617,4 +684,42 @@ fn check_layered_chunk(
         ));
     }
     Ok(())
+}
+
+/// Whether the reader of the LAZ file `path` decompresses with our decoder.
+#[cfg(test)]
+pub(super) fn uses_our_decoder(path: &Path) -> Result<bool, IoError> {
+    let mut file = File::open(path).map_err(|e| IoError::io(path, e))?;
+    let len = file.metadata().map_err(|e| IoError::io(path, e))?.len();
+    let h = super::header::parse(&mut super::header::FileSource {
+        file: &mut file,
+        len,
+    })
+    .map_err(|e| super::las_error(path, e))?;
+    let meta = super::source_meta(&h);
+    Ok(LazReader::new(path, file, h, meta)?.codec.ours.is_some())
+}
+
+/// Each chunk of a LAZ file: its compressed bytes and point count.
+pub(super) type RawChunkList = Vec<(Vec<u8>, u64)>;
+
+/// The LASzip VLR of a LAZ file and its chunks as the reader finds them (for tests and the
+/// decoder benchmark).
+pub(super) fn chunks_of(path: &Path) -> Result<(LazVlr, RawChunkList), IoError> {
+    let mut file = File::open(path).map_err(|e| IoError::io(path, e))?;
+    let len = file.metadata().map_err(|e| IoError::io(path, e))?.len();
+    let h = super::header::parse(&mut super::header::FileSource {
+        file: &mut file,
+        len,
+    })
+    .map_err(|e| super::las_error(path, e))?;
+    let meta = super::source_meta(&h);
+    let r = LazReader::new(path, file, h, meta)?;
+    let mut chunks = Vec::new();
+    for c in &r.chunks {
+        let mut bytes = vec![0; c.bytes as usize];
+        read_exact_at(&r.file, &mut bytes, c.offset).map_err(|e| IoError::io(path, e))?;
+        chunks.push((bytes, c.points));
+    }
+    Ok((r.codec.vlr, chunks))
 }

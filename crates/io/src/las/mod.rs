@@ -1,11 +1,15 @@
 //! LAS 1.0–1.4 and LAZ/COPC reading: our own header parser and record decoder; LAZ chunks are
-//! decompressed by the `laz` crate, several at a time in parallel.
+//! decompressed several at a time in parallel, by our own decoder for the common item sets of
+//! formats 0–3 and by the `laz` crate for the others.
 
 mod header;
 mod laz;
+mod lazcodec;
 pub(crate) mod record;
 
 pub use header::{parse_header, LasError, LasHeader, MAX_KEPT_EVLR};
+#[doc(hidden)]
+pub use lazcodec::raw;
 pub use record::PointFormat;
 
 use crate::{IoError, PointReader};

@@ -1,0 +1,345 @@
+//! The adaptive range decoder of LASzip, reading straight from a chunk's bytes.
+//!
+//! The decoder keeps a 32-bit `value` (where the code lies) and `length` (how wide the current
+//! interval is); each decision narrows the interval and, once it is shorter than 2^24, shifts
+//! in the 1–3 bytes that make it long enough again (at once, without a branch). Symbols come
+//! from adaptive frequency models: [`BitModel`] for binary decisions, [`Model`] for alphabets
+//! of `N` symbols, whose cumulative distribution (scaled to 2^15) is recomputed after a
+//! growing number of decoded symbols (the update cycle), exactly as LASzip does. The decoded
+//! symbol is the last whose cumulative count is at most `value / (length >> 15)`. Models of
+//! more than 16 symbols find it through our own table (`T` entries, finer than LASzip's),
+//! which gives the symbol at the start of the quotient's cell, then step over the rare
+//! boundaries inside the cell; smaller models search by bisection with multiplications only.
+//! Any search for that symbol gives the one LASzip's encoder wrote.
+//!
+//! Reading past the end of the bytes yields zeros and moves the position on regardless, so
+//! [`Arith::overrun`] tells the caller, once per point, that the chunk was too short. Every
+//! operation uses wrapping arithmetic and clamped table indices, so damaged bytes decode to
+//! garbage but can never panic, divide by zero or loop forever.
+
+/// Bits of the interval length dropped before multiplying with a symbol model's distribution.
+const SYMBOL_SHIFT: u32 = 15;
+/// A symbol model's counts are halved once they sum to more than this.
+const SYMBOL_MAX_TOTAL: u32 = 1 << SYMBOL_SHIFT;
+/// Bits of the interval length dropped before multiplying with a bit model's probability.
+const BIT_SHIFT: u32 = 13;
+/// A bit model's counts are halved once they exceed this.
+const BIT_MAX_TOTAL: u32 = 1 << BIT_SHIFT;
+
+/// The range decoder over one chunk's compressed bytes.
+pub(super) struct Arith<'a> {
+    data: &'a [u8],
+    /// Next byte to read; beyond `data.len()` once the decoder ran past the end.
+    pos: usize,
+    value: u32,
+    length: u32,
+}
+
+impl<'a> Arith<'a> {
+    /// Starts decoding at the first byte of `data`: the first four bytes seed the value.
+    pub fn new(data: &'a [u8]) -> Self {
+        let mut a = Arith {
+            data,
+            pos: 0,
+            value: 0,
+            length: u32::MAX,
+        };
+        a.value = a.peek4();
+        a.pos = 4;
+        a
+    }
+
+    /// The decoder needed bytes beyond the end of the chunk.
+    #[inline(always)]
+    pub fn overrun(&self) -> bool {
+        self.pos > self.data.len()
+    }
+
+    /// Shifts in as many bytes (0–3) as bring the length back to at least 2^24, without a
+    /// branch: whether a decision needs more bytes is as random as the data.
+    #[inline(always)]
+    fn renorm(&mut self) {
+        // A length of zero cannot arise (every decision leaves at least one unit); were it to,
+        // 1 keeps the shifts in range.
+        let length = self.length.max(1);
+        let shift = (length.leading_zeros() / 8) * 8;
+        let next = self.peek4();
+        self.value = ((u64::from(self.value) << shift) | (u64::from(next) >> (32 - shift))) as u32;
+        self.length = length << shift;
+        self.pos += (shift / 8) as usize;
+    }
+
+    /// The next four bytes, big-endian, zeros past the end.
+    #[inline(always)]
+    fn peek4(&self) -> u32 {
+        match self.data.get(self.pos..self.pos + 4) {
+            Some(&[a, b, c, d]) => u32::from_be_bytes([a, b, c, d]),
+            _ => self.peek4_at_end(),
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn peek4_at_end(&self) -> u32 {
+        let mut v = 0;
+        for k in 0..4 {
+            v = (v << 8) | u32::from(self.data.get(self.pos + k).copied().unwrap_or(0));
+        }
+        v
+    }
+
+    /// One binary decision with an adaptive bit model.
+    #[inline(always)]
+    pub fn bit(&mut self, m: &mut BitModel) -> u32 {
+        let x = m.prob.wrapping_mul(self.length >> BIT_SHIFT);
+        let bit = self.value >= x;
+        if bit {
+            self.value = self.value.wrapping_sub(x);
+            self.length = self.length.wrapping_sub(x);
+        } else {
+            self.length = x;
+            m.zeros += 1;
+        }
+        self.renorm();
+        m.until -= 1;
+        if m.until == 0 {
+            m.update();
+        }
+        u32::from(bit)
+    }
+
+    /// One symbol of an adaptive model.
+    #[inline(always)]
+    pub fn symbol<const N: usize, const T: usize>(&mut self, m: &mut Model<N, T>) -> u32 {
+        let full = self.length;
+        let unit = self.length >> SYMBOL_SHIFT;
+        let (sym, x, y);
+        if T > 0 {
+            // The symbol is the last whose cumulative count is at most `dv`: the table gives
+            // the symbol at the start of dv's cell, rarely a boundary or two below dv.
+            let dv = self.value / unit;
+            let cell = ((dv >> Model::<N, T>::SHIFT) as usize).min(T - 1);
+            let mut s = usize::from(m.table[cell]);
+            let mut next = if s + 1 < N {
+                u32::from(m.dist[s + 1])
+            } else {
+                u32::MAX
+            };
+            while next <= dv {
+                s += 1;
+                next = if s + 1 < N {
+                    u32::from(m.dist[s + 1])
+                } else {
+                    u32::MAX
+                };
+            }
+            x = u32::from(m.dist[s]).wrapping_mul(unit);
+            y = if s + 1 < N {
+                next.wrapping_mul(unit)
+            } else {
+                full
+            };
+            sym = s;
+        } else {
+            let (mut s, mut n, mut lo, mut hi) = (0usize, N, 0u32, full);
+            let mut k = N >> 1;
+            loop {
+                let z = unit.wrapping_mul(u32::from(m.dist[k]));
+                if z > self.value {
+                    n = k;
+                    hi = z;
+                } else {
+                    s = k;
+                    lo = z;
+                }
+                k = (s + n) >> 1;
+                if k == s {
+                    break;
+                }
+            }
+            (sym, x, y) = (s, lo, hi);
+        }
+        self.value = self.value.wrapping_sub(x);
+        self.length = y.wrapping_sub(x);
+        self.renorm();
+        m.count[sym] += 1;
+        m.until -= 1;
+        if m.until == 0 {
+            m.update();
+        }
+        sym as u32
+    }
+
+    /// `bits` (1–32) raw bits, low bits first for more than 19.
+    #[inline(always)]
+    pub fn bits(&mut self, bits: u32) -> u32 {
+        if bits > 19 {
+            let low = self.raw(16);
+            let high = self.raw(bits - 16);
+            (high << 16) | low
+        } else {
+            self.raw(bits)
+        }
+    }
+
+    /// Up to 19 raw bits in one step.
+    #[inline(always)]
+    fn raw(&mut self, bits: u32) -> u32 {
+        self.length >>= bits;
+        let sym = self.value / self.length;
+        self.value = self.value.wrapping_sub(self.length.wrapping_mul(sym));
+        self.renorm();
+        sym
+    }
+
+    /// A raw 32-bit integer: low half first.
+    pub fn int(&mut self) -> u32 {
+        let low = self.raw(16);
+        let high = self.raw(16);
+        (high << 16) | low
+    }
+}
+
+/// An adaptive model of a binary decision.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BitModel {
+    zeros: u32,
+    total: u32,
+    /// Probability of a zero, scaled to 2^13.
+    prob: u32,
+    until: u32,
+    cycle: u32,
+}
+
+impl BitModel {
+    pub const INIT: BitModel = BitModel {
+        zeros: 1,
+        total: 2,
+        prob: 1 << (BIT_SHIFT - 1),
+        until: 4,
+        cycle: 4,
+    };
+
+    #[inline(never)]
+    fn update(&mut self) {
+        self.total += self.cycle;
+        if self.total > BIT_MAX_TOTAL {
+            self.total = (self.total + 1) >> 1;
+            self.zeros = (self.zeros + 1) >> 1;
+            if self.zeros == self.total {
+                self.total += 1;
+            }
+        }
+        let scale = 0x8000_0000u32 / self.total;
+        self.prob = (self.zeros * scale) >> (31 - BIT_SHIFT);
+        self.cycle = ((5 * self.cycle) >> 2).min(64);
+        self.until = self.cycle;
+    }
+}
+
+/// Bits of the decoding table of a model of `n` symbols: fine enough that a cell rarely holds
+/// the boundary between two likely symbols (models of 16 or fewer have none).
+const fn table_bits(n: usize) -> u32 {
+    if n <= 64 {
+        6
+    } else if n <= 256 {
+        8
+    } else {
+        9
+    }
+}
+
+/// Entries of the decoding table of a model of `n` symbols: one per cell and one for the
+/// values at and beyond the top of the distribution.
+pub(super) const fn table_len(n: usize) -> usize {
+    if n <= 16 {
+        0
+    } else {
+        (1 << table_bits(n)) + 1
+    }
+}
+
+/// An adaptive model of `N` symbols with a decoding table of `T` entries (`table_len(N)`).
+#[derive(Clone, Debug)]
+pub(super) struct Model<const N: usize, const T: usize> {
+    /// Cumulative distribution, scaled to 2^15.
+    dist: [u16; N],
+    /// Symbol counts: at most 2^15 plus one update cycle, as the counts are halved when
+    /// their sum passes 2^15.
+    count: [u16; N],
+    /// The symbol at the start of each cell of 2^15 >> table_bits(N) distribution values.
+    table: [u16; T],
+    total: u32,
+    cycle: u32,
+    until: u32,
+}
+
+impl<const N: usize, const T: usize> Model<N, T> {
+    const SHIFT: u32 = SYMBOL_SHIFT - table_bits(N);
+
+    /// A fresh model: every symbol equally likely.
+    pub const INIT: Self = Self::fresh();
+
+    const fn fresh() -> Self {
+        assert!(N >= 2 && N <= 2048 && T == table_len(N));
+        let mut m = Model {
+            dist: [0; N],
+            count: [1; N],
+            table: [0; T],
+            total: 0,
+            cycle: N as u32,
+            until: 0,
+        };
+        m.update();
+        m.cycle = (N as u32 + 6) >> 1;
+        m.until = m.cycle;
+        m
+    }
+
+    #[inline(never)]
+    const fn update(&mut self) {
+        self.total += self.cycle;
+        if self.total > SYMBOL_MAX_TOTAL {
+            self.total = 0;
+            let mut k = 0;
+            while k < N {
+                self.count[k] = self.count[k].div_ceil(2);
+                self.total += self.count[k] as u32;
+                k += 1;
+            }
+        }
+        let scale = 0x8000_0000u32 / self.total;
+        let (mut sum, mut k) = (0u32, 0usize);
+        while k < N {
+            self.dist[k] = ((scale * sum) >> (31 - SYMBOL_SHIFT)) as u16;
+            sum += self.count[k] as u32;
+            k += 1;
+        }
+        if T > 0 {
+            // Cell c holds the last symbol whose distribution starts at or before c << SHIFT.
+            let (mut cell, mut k) = (0usize, 1usize);
+            while k < N {
+                let first =
+                    ((self.dist[k] as u32 + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
+                while cell < first {
+                    self.table[cell] = (k - 1) as u16;
+                    cell += 1;
+                }
+                k += 1;
+            }
+            while cell < T {
+                self.table[cell] = (N - 1) as u16;
+                cell += 1;
+            }
+        }
+        let most = (N as u32 + 6) << 3;
+        self.cycle = (5 * self.cycle) >> 2;
+        if self.cycle > most {
+            self.cycle = most;
+        }
+        self.until = self.cycle;
+    }
+}
+
+/// The models of 256 symbols that most contexts use.
+pub(super) type ByteModel = Model<256, { table_len(256) }>;
