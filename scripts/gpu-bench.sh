@@ -18,7 +18,10 @@
 #   splats-quality   PSNR per bucket of one-pixel points, hole filling and adaptive splats,
 #                    200 M points (issue 12)
 #   splats-orbit     the 1 G-point realtime orbit with one-pixel points and adaptive splats
-#                    (compute, quads), alternated, warm (issue 12; generates the store)
+#                    (compute, quads), alternated, warm (issue 12; generates the store;
+#                    CONFIGS from pixel adaptive quads fixed2, ROUNDS)
+#   laz              50 M-point LAZ: decoding with our decoder and the laz crate, and loading
+#                    while drawing (issue 11)
 set -euo pipefail
 phase=$1
 out=$2
@@ -194,15 +197,33 @@ case "$phase" in
     size=$(stat -c %s "$store")
     common=(--frames 1200 --orbit-seconds 20 --vram-budget $((size / 20)) --ram-budget 4GiB --bucket 25M --realtime)
     cat "$store" >/dev/null
-    for round in 1 2; do
-      for cfg in pixel adaptive quads; do
+    for round in $(seq 1 "${ROUNDS:-2}"); do
+      for cfg in ${CONFIGS:-pixel adaptive quads}; do
         flags=()
         [ "$cfg" = adaptive ] && flags=(--point-size adaptive)
         [ "$cfg" = quads ] && flags=(--point-size adaptive --splat-raster quads)
+        [ "$cfg" = fixed2 ] && flags=(--point-size 2)
         "$bin" bench "$store" "${common[@]}" "${flags[@]}" --json "$out/orbit-$cfg-$round.json" \
           2>&1 | tee "$out/orbit-$cfg-$round.txt"
       done
     done
+    ;;
+  laz)
+    f=/tmp/p50.laz
+    log="$out/log.txt"
+    /usr/bin/time -f "generate: %e s" "$bin" generate --points 50M -o "$f" 2>&1 | tail -2 | tee -a "$log"
+    cat "$f" >/dev/null
+    for round in 1 2; do
+      for decoder in ours laz-crate; do
+        echo "== bench-read, decoder $decoder" | tee -a "$log"
+        POINTLET_LAZ_DECODER=$decoder "$bin" bench-read "$f" 2>&1 | tee -a "$log"
+      done
+    done
+    for round in 1 2; do
+      "$bin" bench "$f" --realtime --orbit-seconds 10 --target-fps 60 --vram-budget 8GiB \
+        --json "$out/p50-laz-$round.json" 2>&1 | tee -a "$log"
+    done
+    rm -f "$f"
     ;;
   *)
     echo "unknown phase $phase" >&2

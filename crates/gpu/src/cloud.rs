@@ -6,7 +6,7 @@
 //! camera-relative coordinates.
 
 use crate::context::GpuContext;
-use crate::splat::SplatSettings;
+use crate::renderer::RenderSettings;
 use crate::storage::{
     check_page_size, compact_step, encode_positions, needs_fine, DrawBuffers, GpuDrawEntry,
     GpuDrawInfo, GpuFrame, PointEncoding, PointStorage,
@@ -277,8 +277,7 @@ impl GpuCloud {
         ctx: &GpuContext,
         camera: &Camera,
         size: (u32, u32),
-        hidden_classes: &[u32; 8],
-        splats: &SplatSettings,
+        settings: &RenderSettings,
     ) {
         let height = size.1;
         let spacing = self.spacing as f32;
@@ -307,14 +306,7 @@ impl GpuCloud {
             ctx.queue
                 .write_buffer(&self.infos, 0, bytemuck::cast_slice(&self.staging));
         }
-        write_frame(
-            ctx,
-            &self.frame_uniform,
-            camera,
-            size,
-            hidden_classes,
-            splats,
-        );
+        write_frame(ctx, &self.frame_uniform, camera, size, settings);
     }
 }
 
@@ -325,9 +317,9 @@ pub(crate) fn write_frame(
     uniform: &wgpu::Buffer,
     camera: &Camera,
     (width, height): (u32, u32),
-    hidden_classes: &[u32; 8],
-    splats: &SplatSettings,
+    settings: &RenderSettings,
 ) {
+    let hidden_classes = &settings.hidden_classes;
     let frame = GpuFrame {
         view_proj: pointlet_core::camera::to_f32(
             &camera.relative_view_projection(width as f64 / height.max(1) as f64),
@@ -336,7 +328,7 @@ pub(crate) fn write_frame(
         blend_factor: 1.01,
         any_hidden: hidden_classes.iter().any(|w| *w != 0) as u32,
         hidden_classes: *hidden_classes,
-        splat: splats.uniform(camera.focal_px(height)),
+        splat: settings.splat_words(camera.focal_px(height)),
     };
     ctx.queue
         .write_buffer(uniform, 0, bytemuck::bytes_of(&frame));

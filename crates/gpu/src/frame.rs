@@ -8,6 +8,7 @@
 use crate::graph::{CompiledGraph, GraphBuilder, GraphError, Physical, Res, ResourceDesc};
 use crate::raster::PixelKind;
 use crate::screen::{Filter, ScreenPasses};
+use crate::splat::SplatShape;
 use crate::target::{Layer, RenderTarget};
 use crate::GpuError;
 
@@ -33,6 +34,8 @@ pub(crate) enum FramePass {
     Prepare,
     /// Pixel buffers → the raster layer (colour and linear depth).
     Resolve,
+    /// Closest-point splats: empty pixels take the closest splat within its reach.
+    SplatGaps,
     Occlusion,
     HoleFill,
     /// Background and EDL into the output image.
@@ -50,6 +53,7 @@ impl FramePass {
             }
             FramePass::Reproject => Some(0),
             FramePass::Resolve
+            | FramePass::SplatGaps
             | FramePass::Occlusion
             | FramePass::HoleFill
             | FramePass::Compose
@@ -76,6 +80,8 @@ pub(crate) struct FrameShape {
     /// Splats as billboard quads rather than hw-points (with `Hardware` pixels).
     pub quads: bool,
     pub reuse: bool,
+    /// Closest-point splats of this shape fill their gaps on the screen.
+    pub gaps: Option<SplatShape>,
     pub occlusion: bool,
     pub fill: bool,
 }
@@ -90,6 +96,7 @@ struct Roles {
     packed: Option<Res>,
     overflow: Option<Res>,
     hw_depth: Option<Res>,
+    tiles: Option<Res>,
     raster_layer: Option<Res>,
     output: Option<Res>,
 }
@@ -277,6 +284,22 @@ impl FrameGraph {
             );
         } else {
             let mut current = raster_layer;
+            if shape.gaps.is_some() {
+                let tiles = g.transient(
+                    "splat tiles",
+                    ResourceDesc::PixelBuffer { bytes_per_pixel: 1 },
+                );
+                r.tiles = Some(tiles);
+                let next = g.transient("gaps filled", ResourceDesc::Layer);
+                declare(
+                    &mut g,
+                    FramePass::SplatGaps,
+                    &[current],
+                    &[next, tiles],
+                    (Some(current), Some(next)),
+                );
+                current = next;
+            }
             for (on, pass, name) in [
                 (shape.occlusion, FramePass::Occlusion, "occlusion-filtered"),
                 (shape.fill, FramePass::HoleFill, "hole-filled"),
@@ -418,6 +441,18 @@ impl FrameGraph {
                     let mut pass = begin(enc, "screen filter", &stamps);
                     screen.filter(&ctx.device, &mut pass, target, filter, src, dst);
                 }
+                FramePass::SplatGaps => {
+                    let (Some(src), Some(dst), Some(tiles), Some(shape)) = (
+                        layer(src),
+                        layer(dst),
+                        buffer(self.roles.tiles),
+                        self.shape.gaps,
+                    ) else {
+                        return Err(GpuError::Device("render graph: splat gaps unbound".into()));
+                    };
+                    let mut pass = begin(enc, "splat gaps", &stamps);
+                    screen.gaps(&ctx.device, &mut pass, target, shape, src, dst, tiles);
+                }
                 FramePass::Compose => {
                     let Some(src) = layer(src) else {
                         return Err(GpuError::Device(
@@ -461,6 +496,7 @@ mod tests {
             kind,
             quads: false,
             reuse: false,
+            gaps: None,
             occlusion,
             fill,
         }
@@ -519,6 +555,12 @@ mod tests {
         assert_eq!(
             passes(shape(Source::Static, PixelKind::Hardware, false, false)),
             [HwPoints, Compose]
+        );
+        let mut gaps = shape(Source::Static, PixelKind::Key64, false, true);
+        gaps.gaps = Some(SplatShape::Circle);
+        assert_eq!(
+            passes(gaps),
+            [Raster(0), Resolve, SplatGaps, HoleFill, Compose]
         );
         let mut quads = shape(Source::Paged, PixelKind::Hardware, false, true);
         quads.quads = true;

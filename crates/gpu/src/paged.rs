@@ -490,14 +490,7 @@ impl PagedCloud {
             stamps(6),
         )?;
         let timestamps = stamps(0);
-        write_frame(
-            ctx,
-            &self.frame_uniform,
-            camera,
-            (width, height),
-            &settings.hidden_classes,
-            &settings.splats,
-        );
+        write_frame(ctx, &self.frame_uniform, camera, (width, height), settings);
         let eye = camera.eye.map(split);
         let params = LodParams {
             view_proj: pointlet_core::camera::to_f32(

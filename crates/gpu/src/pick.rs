@@ -39,13 +39,7 @@ impl Renderer {
         radius: u32,
     ) -> Result<Option<PickHit>, GpuError> {
         Self::check(ctx, RasterVariant::AtomicMin32, &settings.splats, camera)?;
-        cloud.prepare(
-            ctx,
-            camera,
-            (target.width, target.height),
-            &settings.hidden_classes,
-            &settings.splats,
-        );
+        cloud.prepare(ctx, camera, (target.width, target.height), settings);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.record_pick(
             ctx,

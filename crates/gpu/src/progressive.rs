@@ -246,14 +246,13 @@ impl ProgressiveCloud {
         };
         ctx.queue
             .write_buffer(&self.infos, 0, bytemuck::bytes_of(&info));
-        write_frame(
-            ctx,
-            &self.frame_uniform,
-            camera,
-            size,
-            &settings.hidden_classes,
-            &settings.splats,
-        );
+        let render = RenderSettings {
+            variant: RasterVariant::AtomicMin,
+            hidden_classes: settings.hidden_classes,
+            splats: settings.splats,
+            ..Default::default()
+        };
+        write_frame(ctx, &self.frame_uniform, camera, size, &render);
     }
 
     /// Writes the Fill pass's draw entries for slots `first..first + count` (wrapping at N):

@@ -110,6 +110,11 @@ impl RasterVariant {
         }
     }
 
+    /// True for the variants that keep the closest point per pixel (against blending).
+    pub fn closest_point(self) -> bool {
+        matches!(self.buffers(), PixelKind::Key64 | PixelKind::TwoPass32)
+    }
+
     /// True for the single-atomic closest-point variants: one key per pixel that only grows,
     /// so more points can be drawn into a kept framebuffer later with the same result.
     pub fn accumulates(self) -> bool {

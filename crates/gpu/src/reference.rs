@@ -130,7 +130,7 @@ pub fn project_splat(
     splats: &SplatSettings,
 ) -> Option<SplatRef> {
     let vp = camera.view_projection(width as f64 / height as f64);
-    let [fixed, scale, max, ring_ratio] = splats.uniform(camera.focal_px(height));
+    let [fixed, scale, max, ring_ratio] = splats.uniform(camera.focal_px(height), false);
     splat_with(
         &vp,
         width,
@@ -229,7 +229,8 @@ fn tiered(depth: f32, ring: bool) -> u32 {
 }
 
 /// Closest splat per pixel: (view depth, colour word: RGB and the splat's side in the alpha
-/// byte); on equal depth and tier the smaller word.
+/// byte); on equal depth the smaller word. No rings: the closest-point path fills gaps on the
+/// screen ([`fill_splat_gaps`]).
 /// `spacing` is each point's surface spacing (adaptive splats).
 pub fn closest_splats(
     positions: &[[f64; 3]],
@@ -240,7 +241,7 @@ pub fn closest_splats(
     splats: &SplatSettings,
 ) -> Vec<Option<(f32, u32)>> {
     let vp = camera.view_projection(width as f64 / height as f64);
-    let uniform = splats.uniform(camera.focal_px(height));
+    let uniform = splats.uniform(camera.focal_px(height), false);
     let mut best: Vec<Option<(u32, u32, f32)>> = vec![None; (width * height) as usize];
     for (p, c) in positions.iter().zip(colors) {
         let Some(s) = splat_with(&vp, width, height, *p, spacing, uniform) else {
@@ -261,7 +262,7 @@ pub fn closest_splats(
 }
 
 /// Blended splats (Botsch et al.): per pixel, the integer average colour of the splat pixels
-/// of the closest's tier within `blend` × its depth.
+/// of the closest's tier within `blend` × its depth (adaptive splats with their rings).
 pub fn blended_splats(
     positions: &[[f64; 3]],
     colors: &[u32],
@@ -272,7 +273,7 @@ pub fn blended_splats(
     blend: f32,
 ) -> Vec<Option<u32>> {
     let vp = camera.view_projection(width as f64 / height as f64);
-    let uniform = splats.uniform(camera.focal_px(height));
+    let uniform = splats.uniform(camera.focal_px(height), true);
     let fragments: Vec<(usize, u32, f32, u32)> = positions
         .iter()
         .zip(colors)
@@ -307,4 +308,44 @@ pub fn blended_splats(
             })
         })
         .collect()
+}
+
+/// The screen's gap filling of closest-point splats (gaps.wgsl): an empty pixel takes the
+/// closest (then smaller colour word) of the splat pixels within their reach of it — the
+/// splat's side, from the colour word's alpha byte, through [`crate::splat::gap_reach`]; the
+/// window is a square, or a disc for circles.
+pub fn fill_splat_gaps(
+    pixels: &[Option<(f32, u32)>],
+    (width, height): (u32, u32),
+    shape: SplatShape,
+) -> Vec<Option<(f32, u32)>> {
+    let (w, h) = (width as i64, height as i64);
+    let r = crate::splat::GAP_REACH_MAX as i64;
+    let mut out = pixels.to_vec();
+    for y in 0..h {
+        for x in 0..w {
+            if pixels[(y * w + x) as usize].is_some() {
+                continue;
+            }
+            let mut best: Option<(f32, u32)> = None;
+            for qy in (y - r).max(0)..=(y + r).min(h - 1) {
+                for qx in (x - r).max(0)..=(x + r).min(w - 1) {
+                    let Some((d, c)) = pixels[(qy * w + qx) as usize] else {
+                        continue;
+                    };
+                    let reach = crate::splat::gap_reach(c >> 24) as i64;
+                    let (dx, dy) = (qx - x, qy - y);
+                    let inside = match shape {
+                        SplatShape::Square => dx.abs() <= reach && dy.abs() <= reach,
+                        SplatShape::Circle => dx * dx + dy * dy <= reach * reach,
+                    };
+                    if inside && best.is_none_or(|(bd, bc)| d < bd || (d == bd && c < bc)) {
+                        best = Some((d, c));
+                    }
+                }
+            }
+            out[(y * w + x) as usize] = best;
+        }
+    }
+    out
 }

@@ -65,6 +65,18 @@ impl RenderSettings {
         self.variant.accumulates() && !self.splats.is_adaptive() && !self.splats.quads()
     }
 
+    /// The frame uniform's splat words (splat.rs): blending draws gap-filling rings with its
+    /// splats, the closest-point rasterizers leave the gaps to a screen pass.
+    pub(crate) fn splat_words(&self, focal_px: f64) -> [f32; 4] {
+        self.splats.uniform(focal_px, !self.variant.closest_point())
+    }
+
+    /// Whether the frame fills splat gaps on the screen (adaptive closest-point splats; blending
+    /// draws rings instead).
+    pub(crate) fn screen_gaps(&self) -> bool {
+        self.splats.is_adaptive() && self.variant.closest_point()
+    }
+
     /// Whether splats go through the billboard-quad pipeline this frame.
     pub fn quads(&self) -> bool {
         self.splats.quads() && self.variant.accumulates()
@@ -193,13 +205,7 @@ impl Renderer {
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
         self.ensure_pipelines(ctx, settings, cloud.encoding, cloud.page_size)?;
-        cloud.prepare(
-            ctx,
-            camera,
-            (target.width, target.height),
-            &settings.hidden_classes,
-            &settings.splats,
-        );
+        cloud.prepare(ctx, camera, (target.width, target.height), settings);
         let shape = frame_shape(Source::Static, settings, false);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let pipes = self
@@ -481,6 +487,7 @@ pub(crate) fn frame_shape(source: Source, settings: &RenderSettings, reuse: bool
         },
         quads,
         reuse,
+        gaps: settings.screen_gaps().then_some(settings.splats.shape),
         occlusion: settings.screen.occlusion.is_some(),
         fill: settings.screen.fill_radius > 0,
     }

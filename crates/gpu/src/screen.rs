@@ -5,6 +5,7 @@
 
 use crate::raster::{storage_group, storage_layout, PixelKind};
 use crate::shaders;
+use crate::splat::SplatShape;
 use crate::target::{Layer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
 use bytemuck::{Pod, Zeroable};
 use std::collections::HashMap;
@@ -82,6 +83,8 @@ enum Binding {
     Uniform,
     Sampled,
     Storage(wgpu::TextureFormat),
+    /// A read-write storage buffer.
+    Buffer,
 }
 
 fn layout(device: &wgpu::Device, label: &str, bindings: &[Binding]) -> wgpu::BindGroupLayout {
@@ -106,6 +109,11 @@ fn layout(device: &wgpu::Device, label: &str, bindings: &[Binding]) -> wgpu::Bin
                     access: wgpu::StorageTextureAccess::WriteOnly,
                     format: *format,
                     view_dimension: wgpu::TextureViewDimension::D2,
+                },
+                Binding::Buffer => wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
                 },
             },
             count: None,
@@ -167,6 +175,9 @@ pub(crate) struct ScreenPasses {
     blended_out_layout: wgpu::BindGroupLayout,
     /// Normalisation + EDL per blending kind.
     blended: HashMap<PixelKind, (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    gaps_layout: wgpu::BindGroupLayout,
+    /// Splat gap filling per shape: the tile pass and the fill pass.
+    gaps: HashMap<SplatShape, (wgpu::ComputePipeline, wgpu::ComputePipeline)>,
     uniforms: wgpu::Buffer,
 }
 
@@ -244,6 +255,17 @@ impl ScreenPasses {
             "normalise and compose",
             &[Binding::Uniform, Binding::Storage(COLOR_FORMAT)],
         );
+        let gaps_layout = layout(
+            device,
+            "splat gaps",
+            &[
+                Binding::Sampled,
+                Binding::Sampled,
+                Binding::Storage(COLOR_FORMAT),
+                Binding::Storage(DEPTH_FORMAT),
+                Binding::Buffer,
+            ],
+        );
         let fill = pipeline(device, "fill", shaders::FILL, "fill", &[&fill_layout]);
         // Same bindings as filling: one layer in, the other out.
         let occlusion = pipeline(
@@ -276,6 +298,8 @@ impl ScreenPasses {
             compose,
             blended_out_layout,
             blended: HashMap::new(),
+            gaps_layout,
+            gaps: HashMap::new(),
             uniforms,
         }
     }
@@ -470,6 +494,62 @@ impl ScreenPasses {
         );
         pass.set_pipeline(&self.compose);
         pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+    }
+
+    /// Records the gap filling of closest-point splats of `shape` from layer `src` to `dst`,
+    /// with `tiles` (a buffer of at least a u32 per 16 × 16 tile) for the largest sides.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gaps(
+        &mut self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        target: &RenderTarget,
+        shape: SplatShape,
+        src: &Layer,
+        dst: &Layer,
+        tiles: &wgpu::Buffer,
+    ) {
+        let layout = &self.gaps_layout;
+        let (tile_pass, fill) = self.gaps.entry(shape).or_insert_with(|| {
+            let circle = [("CIRCLE", (shape == SplatShape::Circle) as u32 as f64)];
+            let make = |entry| {
+                pipeline_with(
+                    device,
+                    "splat gaps",
+                    shaders::GAPS,
+                    entry,
+                    &[layout],
+                    &circle,
+                )
+            };
+            (make("tiles_pass"), make("fill"))
+        });
+        let views: Vec<wgpu::TextureView> = [&src.color, &src.depth, &dst.color, &dst.depth]
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let mut entries: Vec<wgpu::BindGroupEntry> = views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: wgpu::BindingResource::TextureView(v),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 4,
+            resource: tiles.as_entire_binding(),
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("splat gaps"),
+            layout,
+            entries: &entries,
+        });
+        pass.set_bind_group(0, &group, &[]);
+        pass.set_pipeline(tile_pass);
+        pass.dispatch_workgroups(target.width.div_ceil(16), target.height.div_ceil(16), 1);
+        pass.set_pipeline(fill);
         pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
     }
 

@@ -153,15 +153,22 @@ impl SplatSettings {
     }
 
     /// The frame uniform's splat words: fixed side, adaptive scale (pixels per spacing / depth,
-    /// 0 when fixed), largest side, and the gap-filling ring's side over the splat's.
-    pub(crate) fn uniform(&self, focal_px: f64) -> [f32; 4] {
+    /// 0 when fixed), largest side, and the gap-filling ring's side over the splat's: blending
+    /// (`rings`) draws rings with its splats, the closest-point path fills gaps on the screen
+    /// instead (gaps.wgsl).
+    pub(crate) fn uniform(&self, focal_px: f64, rings: bool) -> [f32; 4] {
+        let ring = if rings && self.is_adaptive() {
+            RING
+        } else {
+            1.0
+        };
         match self.size {
             PointSize::Fixed(px) => [px.clamp(1, MAX_SPLAT) as f32, 0.0, MAX_SPLAT as f32, 1.0],
             PointSize::Adaptive { scale } => [
                 1.0,
                 (scale as f64 * focal_px) as f32,
                 MAX_SPLAT as f32,
-                RING,
+                ring,
             ],
         }
     }
@@ -169,8 +176,19 @@ impl SplatSettings {
 
 /// Side of the gap-filling ring of adaptive splats over the splat's. With splats of side
 /// 1.5 × spacing, a random subset leaves a pixel uncovered by every splat with probability about
-/// e^(−1.5²) ≈ 10 %, and by every ring with e^(−(1.5 · 2.4)²) ≈ 2·10⁻⁶.
+/// e^(−1.5²) ≈ 10 %, and by every ring with e^(−(1.5 · 2.4)²) ≈ 2·10⁻⁶. Blending draws the
+/// rings with its splats; the closest-point path reaches as far on the screen (gaps.wgsl):
+/// (2.4 − 1) / 2 = 0.7 of a splat's side beyond it.
 pub const RING: f32 = 2.4;
+
+/// How far beyond a splat of side `side` the screen's gap filling reaches, in pixels:
+/// round(0.7 · side) in integers (as gaps.wgsl computes it), 1 to [`GAP_REACH_MAX`].
+pub fn gap_reach(side: u32) -> u32 {
+    ((side * 7 + 5) / 10).clamp(1, GAP_REACH_MAX)
+}
+
+/// The farthest the gap filling reaches (its search window is 2 · 16 + 1 pixels across).
+pub const GAP_REACH_MAX: u32 = 16;
 
 /// The pipeline override constants of a splat mode.
 pub(crate) fn constants(mode: SplatMode) -> [(&'static str, f64); 2] {

@@ -318,3 +318,52 @@ fn billboard_quads_refuse_blending() {
         .expect_err("quads keep the closest splat");
     assert!(err.to_string().contains("closest"), "{err}");
 }
+
+#[test]
+fn adaptive_splats_and_their_gap_filling_match_the_reference() {
+    let ctx = context();
+    let cam = camera();
+    // Sparse: splats of 2–4 pixels a point every 6, so the screen's gap filling has work.
+    let set = splat_scene(19, 6, true);
+    let spacing = 0.9f32;
+    for shape in SplatShape::ALL {
+        let splats = SplatSettings {
+            size: PointSize::adaptive(),
+            shape,
+            ..Default::default()
+        };
+        for encoding in PointEncoding::ALL {
+            let drawn = drawn_positions(&ctx, &set, encoding, &cam);
+            let closest =
+                reference::closest_splats(&drawn, &set.colors, spacing, &cam, (W, H), &splats);
+            let filled = reference::fill_splat_gaps(&closest, (W, H), shape);
+            let gaps = filled.iter().zip(&closest).filter(|(f, c)| f != c).count();
+            assert!(gaps > 50, "gap filling fills pixels: {gaps}");
+            let colors: Vec<Option<u32>> = filled.iter().map(|p| p.map(|(_, c)| c)).collect();
+            let expected = reference::image(&colors, BLACK);
+            let mut cloud =
+                pointlet_gpu::GpuCloud::upload(&ctx, &set, encoding, 256).expect("upload");
+            cloud.set_spacing(spacing as f64);
+            for variant in CLOSEST {
+                let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+                let settings = RenderSettings {
+                    variant,
+                    splats,
+                    ..Default::default()
+                };
+                pointlet_gpu::Renderer::new(&ctx)
+                    .render(&ctx, &mut cloud, &cam, &settings, &mut target)
+                    .expect("render");
+                let got = target.read_rgba(&ctx).expect("readback");
+                assert_eq!(
+                    diff(&got, &expected),
+                    (0, 0),
+                    "{} / {} / {}",
+                    variant.name(),
+                    encoding.name(),
+                    shape.name()
+                );
+            }
+        }
+    }
+}
