@@ -15,10 +15,10 @@ struct ComposeParams {
     _pad: f32,
 }
 
-// Steps EDL ignores, in log2 depth per pixel of splat side: adaptive splats are 1.5 spacings
-// wide, so neighbours on a surface tilted by θ differ by side / (1.5 · focal) · tan θ in depth;
+// Steps EDL ignores, in log2 depth per pixel of splat side: adaptive splats are 1.25 spacings
+// wide, so neighbours on a surface tilted by θ differ by side / (1.25 · focal) · tan θ in depth;
 // up to tan θ = 3 (72°), over ln 2.
-const STEP_SLOPE: f32 = 2.9;
+const STEP_SLOPE: f32 = 3.5;
 
 @group(0) @binding(0) var<uniform> params: ComposeParams;
 

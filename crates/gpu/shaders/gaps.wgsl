@@ -1,5 +1,5 @@
 // Gap filling of closest-point splats (splat.rs): an empty pixel takes the closest of the splat
-// pixels whose reach covers it — 0.7 of the splat's side beyond that pixel (round(0.7 · side),
+// pixels whose reach covers it — 0.9 of the splat's side beyond that pixel (round(0.9 · side),
 // 1 to GAP_REACH_MAX pixels; a square window, or a disc for circles), so a surface a random LoD
 // subset leaves open closes, while silhouettes grow by that reach at most. Blending draws the
 // same reach as rings of its splats instead; here it costs a screen pass rather than ring
@@ -26,9 +26,9 @@ fn side_of(c: vec4<f32>) -> u32 {
     return select(0u, u32(round(c.a * 255.0)), c.a > 0.0 && c.a < 0.5);
 }
 
-// splat.rs gap_reach: round(0.7 · side) in integers, 1 to GAP_REACH_MAX.
+// splat.rs gap_reach: round(0.9 · side) in integers, 1 to GAP_REACH_MAX.
 fn reach(side: u32) -> i32 {
-    return clamp(i32((side * 7u + 5u) / 10u), 1, GAP_REACH_MAX);
+    return clamp(i32((side * 9u + 5u) / 10u), 1, GAP_REACH_MAX);
 }
 
 fn tiles_x() -> u32 {

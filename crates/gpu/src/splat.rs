@@ -21,7 +21,7 @@ pub enum PointSize {
 
 impl PointSize {
     /// The adaptive default: a splat as wide as the spacing times this.
-    pub const ADAPTIVE_SCALE: f32 = 1.5;
+    pub const ADAPTIVE_SCALE: f32 = 1.25;
 
     pub fn adaptive() -> Self {
         PointSize::Adaptive {
@@ -175,16 +175,16 @@ impl SplatSettings {
 }
 
 /// Side of the gap-filling ring of adaptive splats over the splat's. With splats of side
-/// 1.5 × spacing, a random subset leaves a pixel uncovered by every splat with probability about
-/// e^(−1.5²) ≈ 10 %, and by every ring with e^(−(1.5 · 2.4)²) ≈ 2·10⁻⁶. Blending draws the
-/// rings with its splats; the closest-point path reaches as far on the screen (gaps.wgsl):
-/// (2.4 − 1) / 2 = 0.7 of a splat's side beyond it.
-pub const RING: f32 = 2.4;
+/// 1.25 × spacing, a random subset leaves a pixel uncovered by every splat with probability
+/// about e^(−1.25²) ≈ 21 %, and by every ring with e^(−(1.25 · 2.8)²) ≈ 5·10⁻⁶. Blending draws
+/// the rings with its splats; the closest-point path reaches as far on the screen (gaps.wgsl):
+/// (2.8 − 1) / 2 = 0.9 of a splat's side beyond it.
+pub const RING: f32 = 2.8;
 
 /// How far beyond a splat of side `side` the screen's gap filling reaches, in pixels:
-/// round(0.7 · side) in integers (as gaps.wgsl computes it), 1 to [`GAP_REACH_MAX`].
+/// round(0.9 · side) in integers (as gaps.wgsl computes it), 1 to [`GAP_REACH_MAX`].
 pub fn gap_reach(side: u32) -> u32 {
-    ((side * 7 + 5) / 10).clamp(1, GAP_REACH_MAX)
+    ((side * 9 + 5) / 10).clamp(1, GAP_REACH_MAX)
 }
 
 /// The farthest the gap filling reaches (its search window is 2 · 16 + 1 pixels across).
