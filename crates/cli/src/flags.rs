@@ -234,7 +234,19 @@ fn drawing(
         given.refuse(&["demo_points"], "the demo scene (without INPUT)", kind)?;
     }
     progressive_flag(given, input, draw)?;
-    point_size(given, input, draw)?;
+    kind_flags(given, input, draw, store_only, progressive_too)?;
+    point_size(given, input, draw)
+}
+
+/// The flags of the kind of input `drawing` was given.
+fn kind_flags(
+    given: &Given,
+    input: Option<&Path>,
+    draw: &DrawArgs,
+    store_only: &[&str],
+    progressive_too: &[&str],
+) -> Result<(), String> {
+    let kind = input_kind(input);
     match input {
         Some(p) if crate::load::is_store_path(p) && !draw.progressive => {
             given.refuse(&READING, "point files", kind)?;

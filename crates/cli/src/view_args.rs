@@ -108,6 +108,7 @@ pub struct DrawArgs {
     pub progressive: bool,
     /// Point size: pixels (1–32), or `adaptive` (the spacing of the points drawn, seen at their
     /// depth: a store's pointlets drawn at a fraction of their points get larger splats).
+    /// Default: adaptive for stores, 1 for point files and the demo scene.
     #[arg(long, value_parser = PointSize::parse)]
     pub point_size: Option<PointSize>,
     /// Shape of points larger than a pixel: square or circle.
@@ -132,11 +133,18 @@ impl DrawArgs {
         }
     }
 
-    /// Point size and shape for `input`: `--point-size` (default one pixel) and
-    /// `--splat-shape`.
-    pub fn splats_for(&self, _input: Option<&Path>) -> SplatSettings {
+    /// Point size and shape for `input`: `--point-size` (default: adaptive for a store drawn
+    /// through its LoD, whose pointlets are drawn at a fraction of their points; one pixel for
+    /// point files, which are drawn whole) and `--splat-shape`.
+    pub fn splats_for(&self, input: Option<&Path>) -> SplatSettings {
+        let store = input.is_some_and(crate::load::is_store_path) && !self.progressive;
+        let default = if store {
+            PointSize::adaptive()
+        } else {
+            PointSize::Fixed(1)
+        };
         SplatSettings {
-            size: self.point_size.unwrap_or(PointSize::Fixed(1)),
+            size: self.point_size.unwrap_or(default),
             shape: self.splat_shape,
             raster: self.splat_raster,
         }
