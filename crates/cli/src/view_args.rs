@@ -107,8 +107,9 @@ pub struct DrawArgs {
     #[arg(long)]
     pub progressive: bool,
     /// Point size: pixels (1–32), or `adaptive` (the spacing of the points drawn, seen at their
-    /// depth: a store's pointlets drawn at a fraction of their points get larger splats).
-    /// Default: adaptive for stores, 1 for point files and the demo scene.
+    /// depth: a store's pointlets drawn at a fraction of their points get larger splats;
+    /// `adaptive:SCALE` for splats SCALE spacings wide, default 1.25). Default: adaptive for
+    /// stores, 1 for point files and the demo scene.
     #[arg(long, value_parser = PointSize::parse)]
     pub point_size: Option<PointSize>,
     /// Shape of points larger than a pixel: square or circle.

@@ -2,8 +2,7 @@
 // every point within `blend_factor` (1 %) of the closest depth found by raster_depth.wgsl adds
 // its colour and a count with four 32-bit atomicAdds; the resolve pass divides. 32-bit atomics
 // only, so HQS also runs where 64-bit atomics are missing.
-// SPLATS (Botsch et al.'s blending of splats, WebGPU-engine paper §6.2): every pixel of a splat
-// whose depth is within the tolerance of the pixel's closest, and of the same tier, adds.
+// SPLATS: blend_splats.wgsl.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -34,46 +33,17 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             if class_hidden(color) {
                 continue;
             }
-            let at = hit.pixel * 4u;
-            atomicAdd(&sums[at], color & 0xffu);
-            atomicAdd(&sums[at + 1u], (color >> 8u) & 0xffu);
-            atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
-            atomicAdd(&sums[at + 3u], 1u);
+            add_color(hit.pixel, color);
         }
     }
 }
 
-fn splat_accumulate(w: Work, i: u32) {
-    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
-    if !s.valid {
-        return;
-    }
-    var color = 0u;
-    var fetched = false;
-    let depth = bitcast<f32>(s.depth_bits);
-    for (var dy = 0u; dy < s.ring; dy++) {
-        for (var dx = 0u; dx < s.ring; dx++) {
-            let px = splat_pixel(s, vec2<u32>(dx, dy));
-            if px.pixel == NO_PIXEL {
-                continue;
-            }
-            let stored = atomicLoad(&depth_buffer[px.pixel]);
-            let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
-            if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
-                continue;
-            }
-            if !fetched {
-                color = load_color(w.base + i);
-                fetched = true;
-                if class_hidden(color) {
-                    return;
-                }
-            }
-            let at = px.pixel * 4u;
-            atomicAdd(&sums[at], color & 0xffu);
-            atomicAdd(&sums[at + 1u], (color >> 8u) & 0xffu);
-            atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
-            atomicAdd(&sums[at + 3u], 1u);
-        }
-    }
+// The colour's r, g, b and a count, four 32-bit atomicAdds.
+fn add_color(pixel: u32, color: u32) {
+    let at = pixel * 4u;
+    atomicAdd(&sums[at], color & 0xffu);
+    atomicAdd(&sums[at + 1u], (color >> 8u) & 0xffu);
+    atomicAdd(&sums[at + 2u], (color >> 16u) & 0xffu);
+    atomicAdd(&sums[at + 3u], 1u);
 }
+

@@ -3,7 +3,7 @@
 // The lane that sees the count reach 255 moves the word into the two 64-bit fallback words
 // (r<<32|g, b<<32|count) and zeroes it; lanes that arrive while the count is ≥ 255 add themselves
 // to the fallback directly. The spare count bits absorb lanes racing with the reset.
-// SPLATS: every pixel of a splat within the tolerance and of the closest's tier adds (raster_hqs).
+// SPLATS: blend_splats.wgsl.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -37,37 +37,6 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             continue;
         }
         add_color(hit.pixel, color);
-    }
-}
-
-fn splat_accumulate(w: Work, i: u32) {
-    let s = project_splat(load_position(w.info, w.base + i), w.info.spacing);
-    if !s.valid {
-        return;
-    }
-    var color = 0u;
-    var fetched = false;
-    let depth = bitcast<f32>(s.depth_bits);
-    for (var dy = 0u; dy < s.ring; dy++) {
-        for (var dx = 0u; dx < s.ring; dx++) {
-            let px = splat_pixel(s, vec2<u32>(dx, dy));
-            if px.pixel == NO_PIXEL {
-                continue;
-            }
-            let stored = atomicLoad(&depth_buffer[px.pixel]);
-            let same_tier = (stored & TIER_BIT) == (tier_depth(~s.depth_bits, px.ring) & TIER_BIT);
-            if !same_tier || depth > bitcast<f32>(untier(stored)) * frame.blend_factor {
-                continue;
-            }
-            if !fetched {
-                color = load_color(w.base + i);
-                fetched = true;
-                if class_hidden(color) {
-                    return;
-                }
-            }
-            add_color(px.pixel, color);
-        }
     }
 }
 

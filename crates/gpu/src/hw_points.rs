@@ -4,7 +4,7 @@
 use crate::cloud::GpuCloud;
 use crate::shaders;
 use crate::storage::{point_group_layout, PointEncoding};
-use crate::target::{Layer, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::target::{begin_layer_pass, Layer, COLOR_FORMAT, DEPTH_FORMAT};
 
 pub(crate) struct HwPointsPipeline {
     pipeline: wgpu::RenderPipeline,
@@ -98,35 +98,7 @@ impl HwPointsPipeline {
         depth_attachment: &wgpu::Texture,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let color = layer.color.create_view(&Default::default());
-        let depth = layer.depth.create_view(&Default::default());
-        let hw_depth = depth_attachment.create_view(&Default::default());
-        let clear = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("hw-points"),
-            color_attachments: &[clear(&color), clear(&depth)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &hw_depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = begin_layer_pass(enc, "hw-points", layer, depth_attachment, timestamps);
         pass.set_pipeline(&self.pipeline);
         for chunk in &cloud.storage.chunks {
             pass.set_bind_group(0, &chunk.bind_group, &[]);

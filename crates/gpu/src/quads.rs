@@ -6,7 +6,7 @@
 use crate::shaders;
 use crate::splat::{self, SplatShape};
 use crate::storage::{point_group_layout, PointEncoding, PointStorage};
-use crate::target::{Layer, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::target::{begin_layer_pass, Layer, COLOR_FORMAT, DEPTH_FORMAT};
 
 pub(crate) struct QuadsPipeline {
     pipeline: wgpu::RenderPipeline,
@@ -89,35 +89,7 @@ impl QuadsPipeline {
         depth_attachment: &wgpu::Texture,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let color = layer.color.create_view(&Default::default());
-        let depth = layer.depth.create_view(&Default::default());
-        let z = depth_attachment.create_view(&Default::default());
-        let clear = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("splat quads"),
-            color_attachments: &[clear(&color), clear(&depth)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &z,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = begin_layer_pass(enc, "splat quads", layer, depth_attachment, timestamps);
         pass.set_pipeline(&self.pipeline);
         for (c, chunk) in storage.chunks.iter().enumerate() {
             pass.set_bind_group(0, &chunk.bind_group, &[]);

@@ -333,13 +333,19 @@ impl RasterPipelines {
             ],
             RasterVariant::Hqs => vec![
                 depth(),
-                stage("hqs", shaders::RASTER_HQS, "accumulate", &[], vec![0, 1]),
+                stage(
+                    "hqs",
+                    &format!("{}\n{}", shaders::RASTER_HQS, shaders::BLEND_SPLATS),
+                    "accumulate",
+                    &[],
+                    vec![0, 1],
+                ),
             ],
             RasterVariant::Hqs1r => vec![
                 depth(),
                 stage(
                     "hqs1r",
-                    shaders::RASTER_HQS1R,
+                    &format!("{}\n{}", shaders::RASTER_HQS1R, shaders::BLEND_SPLATS),
                     "accumulate",
                     &[],
                     vec![0, 1, 2],

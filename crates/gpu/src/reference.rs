@@ -78,14 +78,24 @@ pub fn blended(
     for (h, c) in hits.iter().zip(colors) {
         if let Some((i, d)) = h {
             if *d <= closest[*i] * blend {
-                let s = &mut sums[*i];
-                for (k, v) in s.iter_mut().take(3).enumerate() {
-                    *v += ((c >> (8 * k)) & 0xff) as u64;
-                }
-                s[3] += 1;
+                add_color(&mut sums[*i], *c);
             }
         }
     }
+    averages(&sums)
+}
+
+/// Adds an RGBA colour to r, g, b sums and a count, as HQS's accumulation does.
+fn add_color(sums: &mut [u64; 4], color: u32) {
+    for (k, v) in sums.iter_mut().take(3).enumerate() {
+        *v += ((color >> (8 * k)) & 0xff) as u64;
+    }
+    sums[3] += 1;
+}
+
+/// The integer average colour of each pixel's sums (None where nothing added), as HQS's
+/// resolve divides.
+fn averages(sums: &[[u64; 4]]) -> Vec<Option<u32>> {
     sums.iter()
         .map(|s| {
             (s[3] > 0).then(|| {
@@ -293,21 +303,10 @@ pub fn blended_splats(
         let stored = closest[*i];
         let nearest = f32::from_bits(!(stored | 0x8000_0000));
         if (stored & 0x8000_0000) == (inv & 0x8000_0000) && *depth <= nearest * blend {
-            let s = &mut sums[*i];
-            for (k, v) in s.iter_mut().take(3).enumerate() {
-                *v += ((c >> (8 * k)) & 0xff) as u64;
-            }
-            s[3] += 1;
+            add_color(&mut sums[*i], *c);
         }
     }
-    sums.iter()
-        .map(|s| {
-            (s[3] > 0).then(|| {
-                let avg = |k: usize| (s[k] / s[3]) as u32;
-                avg(0) | avg(1) << 8 | avg(2) << 16
-            })
-        })
-        .collect()
+    averages(&sums)
 }
 
 /// The screen's gap filling of closest-point splats (gaps.wgsl): an empty pixel takes the

@@ -29,23 +29,34 @@ impl PointSize {
         }
     }
 
-    /// `adaptive` or a number of pixels (1–32).
+    /// `adaptive`, `adaptive:SCALE` (splats SCALE spacings wide, 0.5–4) or a number of pixels
+    /// (1–32).
     pub fn parse(s: &str) -> Result<Self, String> {
+        let bad = || {
+            format!(
+                "'{s}' is not a point size: give pixels (1–{MAX_SPLAT}), 'adaptive' or 'adaptive:SCALE' (0.5–4)"
+            )
+        };
         if s == "adaptive" {
             return Ok(Self::adaptive());
         }
+        if let Some(scale) = s.strip_prefix("adaptive:") {
+            return match scale.parse::<f32>() {
+                Ok(scale) if (0.5..=4.0).contains(&scale) => Ok(PointSize::Adaptive { scale }),
+                _ => Err(bad()),
+            };
+        }
         match s.parse::<u32>() {
             Ok(px) if (1..=MAX_SPLAT).contains(&px) => Ok(PointSize::Fixed(px)),
-            _ => Err(format!(
-                "'{s}' is not a point size: give pixels (1–{MAX_SPLAT}) or 'adaptive'"
-            )),
+            _ => Err(bad()),
         }
     }
 
     pub fn name(self) -> String {
         match self {
             PointSize::Fixed(px) => px.to_string(),
-            PointSize::Adaptive { .. } => "adaptive".into(),
+            PointSize::Adaptive { scale } if scale == Self::ADAPTIVE_SCALE => "adaptive".into(),
+            PointSize::Adaptive { scale } => format!("adaptive:{scale}"),
         }
     }
 }
@@ -225,7 +236,25 @@ mod tests {
         assert_eq!(PointSize::parse("1"), Ok(PointSize::Fixed(1)));
         assert_eq!(PointSize::parse("32"), Ok(PointSize::Fixed(32)));
         assert_eq!(PointSize::parse("adaptive"), Ok(PointSize::adaptive()));
-        for bad in ["0", "33", "-1", "1.5", "big", ""] {
+        assert_eq!(
+            PointSize::parse("adaptive:1.1"),
+            Ok(PointSize::Adaptive { scale: 1.1 })
+        );
+        assert_eq!(
+            PointSize::parse("adaptive:1.1").map(PointSize::name),
+            Ok("adaptive:1.1".into())
+        );
+        for bad in [
+            "0",
+            "33",
+            "-1",
+            "1.5",
+            "big",
+            "",
+            "adaptive:0",
+            "adaptive:9",
+            "adaptive:x",
+        ] {
             assert!(PointSize::parse(bad).is_err(), "{bad}");
         }
         assert_eq!(SplatShape::parse("circle"), Some(SplatShape::Circle));

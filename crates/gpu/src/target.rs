@@ -36,6 +36,47 @@ pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Flo
 /// filtered layers, 16).
 const BYTES_PER_PIXEL: u64 = 64;
 
+/// A render pass that clears `layer` (colour and linear depth, its two attachments) and the
+/// `depth_attachment` of the hardware depth test: hardware points and billboard quads draw
+/// into the raster layer the resolve would write.
+pub(crate) fn begin_layer_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    layer: &Layer,
+    depth_attachment: &wgpu::Texture,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    let color = layer.color.create_view(&Default::default());
+    let depth = layer.depth.create_view(&Default::default());
+    let z = depth_attachment.create_view(&Default::default());
+    let clear = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[clear(&color), clear(&depth)],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &z,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(1.0),
+                store: wgpu::StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: timestamps,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// A texture of `size`.
 pub(crate) fn image(
     device: &wgpu::Device,

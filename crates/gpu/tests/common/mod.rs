@@ -84,8 +84,17 @@ pub fn layered_scene(seed: u64, ties: bool) -> Scene {
     }
     // Shuffle so pages mix pixels and depths (the result must not depend on order).
     pointlet_core::shuffle::shuffle(&mut groups, seed ^ 0xabc);
+    Scene {
+        set: in_pages(groups),
+    }
+}
+
+/// The groups' points in order, each group inside one 256-point page (filler points behind
+/// the camera before a group that would straddle a page border): only within a page are
+/// duplicates bit-identical on the GPU (positions are page-relative).
+fn in_pages(groups: Vec<Vec<([f64; 3], u32)>>) -> PointSet {
     let mut set = PointSet::default();
-    let filler = unproject(&cam, 1.0, 1.0, -1.0);
+    let filler = unproject(&camera(), 1.0, 1.0, -1.0);
     for g in groups {
         while set.len() % 256 + g.len() > 256 {
             set.positions.push(filler);
@@ -96,7 +105,7 @@ pub fn layered_scene(seed: u64, ties: bool) -> Scene {
             set.colors.push(c);
         }
     }
-    Scene { set }
+    set
 }
 
 pub fn render(
@@ -161,20 +170,7 @@ pub fn splat_scene(seed: u64, step: u32, ties: bool) -> PointSet {
         groups.push(vec![(unproject(&cam, u, v, -5.0), 0xff00_ff00)]);
     }
     pointlet_core::shuffle::shuffle(&mut groups, seed ^ 0x5eed);
-    let mut set = PointSet::default();
-    let filler = unproject(&cam, 1.0, 1.0, -1.0);
-    for g in groups {
-        // Duplicates stay inside one page: only there are they bit-identical on the GPU.
-        while set.len() % 256 + g.len() > 256 {
-            set.positions.push(filler);
-            set.colors.push(0);
-        }
-        for (p, c) in g {
-            set.positions.push(p);
-            set.colors.push(c);
-        }
-    }
-    set
+    in_pages(groups)
 }
 
 /// Positions as the GPU sees them for `encoding` (compact points snap to their cells).
