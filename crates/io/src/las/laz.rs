@@ -686,9 +686,8 @@ fn check_layered_chunk(
     Ok(())
 }
 
-/// Whether the reader of the LAZ file `path` decompresses with our decoder.
-#[cfg(test)]
-pub(super) fn uses_our_decoder(path: &Path) -> Result<bool, IoError> {
+/// The reader of the LAZ file `path` (for tests and the decoder benchmark).
+fn open_reader(path: &Path) -> Result<LazReader, IoError> {
     let mut file = File::open(path).map_err(|e| IoError::io(path, e))?;
     let len = file.metadata().map_err(|e| IoError::io(path, e))?.len();
     let h = super::header::parse(&mut super::header::FileSource {
@@ -697,7 +696,13 @@ pub(super) fn uses_our_decoder(path: &Path) -> Result<bool, IoError> {
     })
     .map_err(|e| super::las_error(path, e))?;
     let meta = super::source_meta(&h);
-    Ok(LazReader::new(path, file, h, meta)?.codec.ours.is_some())
+    LazReader::new(path, file, h, meta)
+}
+
+/// Whether the reader of the LAZ file `path` decompresses with our decoder.
+#[cfg(test)]
+pub(super) fn uses_our_decoder(path: &Path) -> Result<bool, IoError> {
+    Ok(open_reader(path)?.codec.ours.is_some())
 }
 
 /// Each chunk of a LAZ file: its compressed bytes and point count.
@@ -706,15 +711,7 @@ pub(super) type RawChunkList = Vec<(Vec<u8>, u64)>;
 /// The LASzip VLR of a LAZ file and its chunks as the reader finds them (for tests and the
 /// decoder benchmark).
 pub(super) fn chunks_of(path: &Path) -> Result<(LazVlr, RawChunkList), IoError> {
-    let mut file = File::open(path).map_err(|e| IoError::io(path, e))?;
-    let len = file.metadata().map_err(|e| IoError::io(path, e))?.len();
-    let h = super::header::parse(&mut super::header::FileSource {
-        file: &mut file,
-        len,
-    })
-    .map_err(|e| super::las_error(path, e))?;
-    let meta = super::source_meta(&h);
-    let r = LazReader::new(path, file, h, meta)?;
+    let r = open_reader(path)?;
     let mut chunks = Vec::new();
     for c in &r.chunks {
         let mut bytes = vec![0; c.bytes as usize];
