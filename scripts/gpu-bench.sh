@@ -22,6 +22,7 @@
 #                    CONFIGS from pixel adaptive quads fixed2, ROUNDS)
 #   laz              50 M-point LAZ: decoding with our decoder and the laz crate, and loading
 #                    while drawing (issue 11)
+#   alloc            the GPU buffer suballocator against a buffer per allocation (issue 13)
 set -euo pipefail
 phase=$1
 out=$2
@@ -207,6 +208,9 @@ case "$phase" in
           2>&1 | tee "$out/orbit-$cfg-$round.txt"
       done
     done
+    ;;
+  alloc)
+    "$bin" bench-alloc --rounds 5 --json "$out/alloc.json" 2>&1 | tee "$out/alloc.txt"
     ;;
   laz)
     f=/tmp/p50.laz

@@ -1,6 +1,7 @@
 //! `pointlet`: the command-line front end. Thin by design: it parses arguments and wires the
 //! crates' stages together (io → store → gpu); every real decision lives in a library crate.
 
+mod bench_alloc_cmd;
 mod bench_cmd;
 mod bench_progressive;
 mod bench_raster_cmd;
@@ -53,6 +54,8 @@ enum Command {
     View(view_cmd::Args),
     /// Time every rasterizer × vertex order × encoding against a copy kernel (paper Table 1).
     BenchRaster(bench_raster_cmd::Args),
+    /// Time the GPU buffer suballocator against a buffer per allocation (WebGPU paper Table 2–3).
+    BenchAlloc(bench_alloc_cmd::Args),
     /// Fly a store along a camera path: FPS statistics, stage breakdown, memory; or --quality.
     Bench(bench_cmd::Args),
     /// Only decode inputs and report points/s (the baseline for `convert`).
@@ -107,6 +110,7 @@ fn main() -> ExitCode {
         Command::Render(a) => render_cmd::run(a),
         Command::View(a) => view_cmd::run(a),
         Command::BenchRaster(a) => bench_raster_cmd::run(a),
+        Command::BenchAlloc(a) => bench_alloc_cmd::run(a),
         Command::Bench(a) => bench_cmd::run(a),
         Command::BenchRead(a) => bench_read_cmd::run(a),
     };

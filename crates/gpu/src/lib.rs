@@ -21,6 +21,7 @@ mod shaders;
 pub mod shuffle;
 mod splat;
 mod storage;
+pub mod suballoc;
 mod target;
 mod upload;
 
