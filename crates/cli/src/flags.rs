@@ -121,6 +121,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
         Command::Bench(a) => {
             store_drawing(given, a.draw.raster)?;
             point_size(given, Some(&a.store), &a.draw)?;
+            temporal_reuse(given, Some(&a.store), &a.draw)?;
             given.refuse(&READING, "point files", "a store")?;
             given.refuse(&PROGRESSIVE, "point files", "a store")?;
             if a.quality {
@@ -250,7 +251,8 @@ fn kind_flags(
     match input {
         Some(p) if crate::load::is_store_path(p) && !draw.progressive => {
             given.refuse(&READING, "point files", kind)?;
-            store_drawing(given, draw.raster)
+            store_drawing(given, draw.raster)?;
+            temporal_reuse(given, input, draw)
         }
         Some(p) if crate::progressive_cmd::is_progressive(Some(p), draw) => {
             if crate::load::is_store_path(p) {
@@ -277,6 +279,24 @@ fn kind_flags(
             given.refuse(&both, "stores and point files drawn while they load", kind)
         }
     }
+}
+
+/// `--temporal-reuse` moves the last frame's 64-bit keys: a single-atomic closest-point
+/// rasterizer drawing with compute (not billboard quads).
+fn temporal_reuse(given: &Given, input: Option<&Path>, draw: &DrawArgs) -> Result<(), String> {
+    if !given.has("temporal_reuse") {
+        return Ok(());
+    }
+    if !draw.raster.accumulates() {
+        return Err(format!(
+            "--temporal-reuse reprojects the last frame's closest points: it takes atomic-min, early-z, reduce, reduce-early-z or dedup, not --raster {}",
+            draw.raster.name()
+        ));
+    }
+    if draw.splats_for(input).quads() {
+        return Err("--temporal-reuse reprojects the compute rasterizers' keys, which billboard quads (--splat-raster quads) do not write".into());
+    }
+    Ok(())
 }
 
 /// `--point-size` beyond one pixel needs a compute rasterizer; `--splat-shape` needs points

@@ -180,6 +180,19 @@ fn point_sizes_that_cannot_apply_are_refused() {
         &["render", s(&laz), "-o", s(&png), "--splat-raster", "quads"],
         &["--splat-raster", "larger than a pixel"],
     );
+    let store = dir.path().join("autzen.pointlet");
+    ok(&["convert", s(&laz), "-o", s(&store)]);
+    for (raster, needles) in [
+        (&["--raster", "hqs"][..], &["--temporal-reuse", "hqs"][..]),
+        (
+            &["--splat-raster", "quads"][..],
+            &["--temporal-reuse", "quads"][..],
+        ),
+    ] {
+        let mut args = vec!["render", s(&store), "-o", s(&png), "--temporal-reuse"];
+        args.extend_from_slice(raster);
+        usage_fails(&args, needles);
+    }
     usage_fails(
         &[
             "render",

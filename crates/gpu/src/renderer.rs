@@ -291,12 +291,15 @@ impl Renderer {
             accumulate: view.accumulate && settings.accumulates(),
             ..*view
         };
-        if !settings.accumulates() {
+        // Temporal reuse moves the last frame's 64-bit keys: single-atomic closest-point
+        // variants (adaptive splats too), not billboard quads, which write no keys.
+        let keyed = variant.accumulates() && !settings.quads();
+        if !keyed {
             if let Some(r) = reuse.as_deref_mut() {
                 r.forget();
             }
         }
-        let reusing = reuse.is_some() && settings.accumulates();
+        let reusing = reuse.is_some() && keyed;
         let shape = frame_shape(Source::Paged, settings, reusing);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let pipes = self
