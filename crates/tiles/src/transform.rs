@@ -138,11 +138,13 @@ impl Transform {
                 "is degenerate: an axis has zero length (column lengths {lengths:?})"
             ));
         }
-        // |det| / (product of column lengths) is 1 for orthogonal axes and 0 for flat ones.
-        let flatness = self.determinant3().abs() / (lengths[0] * lengths[1] * lengths[2]);
+        // The determinant of the unit axes: 1 for orthogonal axes, 0 for flat ones (computed
+        // on unit vectors so that huge or tiny scales do not overflow).
+        let unit = [0, 1, 2].map(|c| self.column(c).map(|v| v / lengths[c]));
+        let flatness = dot(unit[0], cross(unit[1], unit[2])).abs();
         if !(flatness > 1e-12) {
             return Some(format!(
-                "is degenerate: its axes are (nearly) coplanar (|det| / axis lengths = {flatness:e})"
+                "is degenerate: its axes are (nearly) coplanar (determinant of the unit axes {flatness:e})"
             ));
         }
         None
@@ -161,8 +163,14 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// Euclidean length, without overflow for components near the f64 limits.
 pub(crate) fn length(v: [f64; 3]) -> f64 {
-    dot(v, v).sqrt()
+    let largest = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if largest == 0.0 || !largest.is_finite() {
+        return largest;
+    }
+    let u = v.map(|x| x / largest);
+    largest * dot(u, u).sqrt()
 }
 
 #[cfg(test)]
