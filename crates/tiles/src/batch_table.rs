@@ -108,7 +108,10 @@ fn json_values(items: &[Value]) -> Option<(usize, AttributeValues)> {
             components,
             AttributeValues::Int(
                 flat.iter()
-                    .map(|v| v.as_i64().unwrap_or_else(|| i64::from(v.as_bool() == Some(true))))
+                    .map(|v| {
+                        v.as_i64()
+                            .unwrap_or_else(|| i64::from(v.as_bool() == Some(true)))
+                    })
                     .collect(),
             ),
         ));
@@ -133,7 +136,10 @@ fn binary_values(
         .and_then(Value::as_u64)
         .and_then(|o| usize::try_from(o).ok())
         .ok_or_else(|| format!("property '{name}': byteOffset is not a non-negative integer"))?;
-    let ty_name = value.get("componentType").and_then(Value::as_str).unwrap_or("");
+    let ty_name = value
+        .get("componentType")
+        .and_then(Value::as_str)
+        .unwrap_or("");
     let ty = ComponentType::from_tiles_name(ty_name)
         .ok_or_else(|| format!("property '{name}': unknown componentType '{ty_name}'"))?;
     let shape = value.get("type").and_then(Value::as_str).unwrap_or("");
@@ -176,16 +182,23 @@ mod tests {
         let (attributes, notes) =
             read(table.as_object().unwrap(), &binary, 2, Some(&[1, 1, 0]), 3).unwrap();
         let get = |n: &str| attributes.iter().find(|a| a.name == n).unwrap();
-        assert_eq!(get("height").values, AttributeValues::Float(vec![2.0, 2.0, 1.5]));
+        assert_eq!(
+            get("height").values,
+            AttributeValues::Float(vec![2.0, 2.0, 1.5])
+        );
         assert_eq!(get("class").values, AttributeValues::Int(vec![4, 4, 3]));
         assert_eq!(get("dir").components, 2);
-        assert_eq!(get("dir").values, AttributeValues::Int(vec![0, 1, 0, 1, 1, 0]));
+        assert_eq!(
+            get("dir").values,
+            AttributeValues::Int(vec![0, 1, 0, 1, 1, 0])
+        );
         assert_eq!(get("flag").values, AttributeValues::Int(vec![0, 0, 1]));
         assert_eq!(get("weight").values, AttributeValues::Int(vec![9, 9, 7]));
         assert_eq!(notes.len(), 1);
         assert!(notes[0].contains("'name'"));
 
-        let short = json!({"weight": {"byteOffset": 2, "componentType": "UNSIGNED_SHORT", "type": "VEC2"}});
+        let short =
+            json!({"weight": {"byteOffset": 2, "componentType": "UNSIGNED_SHORT", "type": "VEC2"}});
         let e = read(short.as_object().unwrap(), &binary, 2, None, 2).unwrap_err();
         assert!(e.contains("'weight'") && e.contains("need"), "{e}");
         let wrong_count = json!({"h": [1, 2, 3]});

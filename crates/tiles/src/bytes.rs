@@ -197,7 +197,12 @@ impl<'a> Strided<'a> {
 
 /// Reads `components` values of type `ty` from each element of `view` as f64 (normalized
 /// integers mapped to [0, 1] / [−1, 1] when `normalized`).
-pub fn read_f64s(view: &Strided, ty: ComponentType, components: usize, normalized: bool) -> Vec<f64> {
+pub fn read_f64s(
+    view: &Strided,
+    ty: ComponentType,
+    components: usize,
+    normalized: bool,
+) -> Vec<f64> {
     let size = ty.size();
     let mut out = Vec::with_capacity(view.len() * components);
     for i in 0..view.len() {
@@ -245,7 +250,10 @@ mod tests {
     fn normalized_integers() {
         assert_eq!(ComponentType::I8.read_normalized(&[0x80]), -1.0);
         assert_eq!(ComponentType::U8.read_normalized(&[255]), 1.0);
-        assert_eq!(ComponentType::I16.read_normalized(&32767i16.to_le_bytes()), 1.0);
+        assert_eq!(
+            ComponentType::I16.read_normalized(&32767i16.to_le_bytes()),
+            1.0
+        );
         assert_eq!(ComponentType::U64.read_i64(&u64::MAX.to_le_bytes()), None);
     }
 }

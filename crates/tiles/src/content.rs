@@ -128,7 +128,10 @@ pub fn decode(bytes: &[u8], context: &ContentContext) -> Result<TilePoints, Tile
         }
         _ if bytes.len() < 4 => Err(TilesError::content(
             uri,
-            format!("truncated: {} bytes, too short for any tile format", bytes.len()),
+            format!(
+                "truncated: {} bytes, too short for any tile format",
+                bytes.len()
+            ),
         )),
         _ => Err(TilesError::content(
             uri,
@@ -167,15 +170,24 @@ pub(crate) fn merge_parts(uri: &str, parts: Vec<TilePoints>) -> TilePoints {
             let other = part.attributes.iter().find(|b| {
                 b.name == attribute.name
                     && b.components == attribute.components
-                    && std::mem::discriminant(&b.values) == std::mem::discriminant(&attribute.values)
+                    && std::mem::discriminant(&b.values)
+                        == std::mem::discriminant(&attribute.values)
             });
             match (other, &mut attribute.values) {
-                (Some(PointAttribute { values: AttributeValues::Int(b), .. }), AttributeValues::Int(a)) => {
-                    a.extend_from_slice(b)
-                }
-                (Some(PointAttribute { values: AttributeValues::Float(b), .. }), AttributeValues::Float(a)) => {
-                    a.extend_from_slice(b)
-                }
+                (
+                    Some(PointAttribute {
+                        values: AttributeValues::Int(b),
+                        ..
+                    }),
+                    AttributeValues::Int(a),
+                ) => a.extend_from_slice(b),
+                (
+                    Some(PointAttribute {
+                        values: AttributeValues::Float(b),
+                        ..
+                    }),
+                    AttributeValues::Float(a),
+                ) => a.extend_from_slice(b),
                 _ => {
                     out.notes.push(format!(
                         "attribute '{}' is not in every primitive: dropped",
@@ -188,7 +200,10 @@ pub(crate) fn merge_parts(uri: &str, parts: Vec<TilePoints>) -> TilePoints {
         }
         for b in &part.attributes {
             if !kept.iter().any(|a| a.name == b.name) {
-                out.notes.push(format!("attribute '{}' is not in every primitive: dropped", b.name));
+                out.notes.push(format!(
+                    "attribute '{}' is not in every primitive: dropped",
+                    b.name
+                ));
             }
         }
         out.attributes = kept;
@@ -198,7 +213,11 @@ pub(crate) fn merge_parts(uri: &str, parts: Vec<TilePoints>) -> TilePoints {
 
 /// sRGB 8-bit value of a linear intensity in [0, 1] (IEC 61966-2-1).
 pub fn linear_to_srgb8(linear: f64) -> u8 {
-    let l = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    let l = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
     let s = if l <= 0.003_130_8 {
         12.92 * l
     } else {

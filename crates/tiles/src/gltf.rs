@@ -20,8 +20,8 @@
 
 use crate::bytes::{read_f64s, ComponentType, Strided};
 use crate::content::{
-    linear_to_srgb8, transform_normal, unit_to_u8, AttributeValues, ContentContext,
-    PointAttribute, TilePoints,
+    linear_to_srgb8, transform_normal, unit_to_u8, AttributeValues, ContentContext, PointAttribute,
+    TilePoints,
 };
 use crate::transform::Transform;
 use crate::{resolve_uri, TilesError};
@@ -50,7 +50,10 @@ pub fn decode_glb(bytes: &[u8], context: &ContentContext) -> Result<TilePoints, 
     if bytes.len() < 12 {
         return Err(TilesError::content(
             uri,
-            format!("truncated GLB: {} bytes, the header alone has 12", bytes.len()),
+            format!(
+                "truncated GLB: {} bytes, the header alone has 12",
+                bytes.len()
+            ),
         ));
     }
     if &bytes[..4] != b"glTF" {
@@ -65,7 +68,10 @@ pub fn decode_glb(bytes: &[u8], context: &ContentContext) -> Result<TilePoints, 
     let word = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
     let version = word(4);
     if version != 2 {
-        return Err(TilesError::unsupported(uri, format!("GLB version {version} (only glTF 2)")));
+        return Err(TilesError::unsupported(
+            uri,
+            format!("GLB version {version} (only glTF 2)"),
+        ));
     }
     let length = word(8) as usize;
     if length < 20 || length > bytes.len() {
@@ -132,7 +138,9 @@ fn decode_document(
     let mut parts = Vec::new();
     let mut notes = Vec::new();
     for (node, global) in document.mesh_nodes(&base).map_err(invalid)? {
-        let Some(mesh_index) = node.mesh else { continue };
+        let Some(mesh_index) = node.mesh else {
+            continue;
+        };
         let mesh = root
             .get(mesh_index)
             .ok_or_else(|| invalid(format!("mesh {} does not exist", mesh_index.value())))?;
@@ -146,8 +154,15 @@ fn decode_document(
                 }
                 Checked::Invalid => return Err(invalid(format!("{at}: invalid mode"))),
             }
-            if primitive.extensions.as_ref().is_some_and(|e| e.others.contains_key("KHR_draco_mesh_compression")) {
-                return Err(TilesError::unsupported(uri, format!("{at}: Draco-compressed primitive (KHR_draco_mesh_compression)")));
+            if primitive
+                .extensions
+                .as_ref()
+                .is_some_and(|e| e.others.contains_key("KHR_draco_mesh_compression"))
+            {
+                return Err(TilesError::unsupported(
+                    uri,
+                    format!("{at}: Draco-compressed primitive (KHR_draco_mesh_compression)"),
+                ));
             }
             let raw_primitive = raw
                 .pointer(&format!("/meshes/{}/primitives/{p}", mesh_index.value()))
@@ -156,7 +171,9 @@ fn decode_document(
                 .primitive(primitive, raw_primitive, &global, &at, uri)
                 .map_err(|e| match e {
                     PrimitiveError::Invalid(m) => invalid(format!("{at}: {m}")),
-                    PrimitiveError::Unsupported(m) => TilesError::unsupported(uri, format!("{at}: {m}")),
+                    PrimitiveError::Unsupported(m) => {
+                        TilesError::unsupported(uri, format!("{at}: {m}"))
+                    }
                 })?;
             parts.push(part);
         }
@@ -191,12 +208,17 @@ fn load_buffers<'a>(
         let data: Option<Cow<[u8]>> = match &buffer.uri {
             None if i == 0 => bin.map(Cow::Borrowed),
             None => None,
-            Some(u) if u.starts_with("data:") => Some(Cow::Owned(decode_data_uri(u).ok_or_else(
-                || TilesError::content(uri, format!("buffer {i}: invalid data URI")),
-            )?)),
+            Some(u) if u.starts_with("data:") => {
+                Some(Cow::Owned(decode_data_uri(u).ok_or_else(|| {
+                    TilesError::content(uri, format!("buffer {i}: invalid data URI"))
+                })?))
+            }
             Some(u) => {
                 let source = context.source.ok_or_else(|| {
-                    TilesError::unsupported(uri, format!("buffer {i}: external buffer {u} without a source"))
+                    TilesError::unsupported(
+                        uri,
+                        format!("buffer {i}: external buffer {u} without a source"),
+                    )
                 })?;
                 Some(Cow::Owned(source.read(&resolve_uri(uri, u))?))
             }
@@ -206,7 +228,10 @@ fn load_buffers<'a>(
             if (d.len() as u64) < declared {
                 return Err(TilesError::content(
                     uri,
-                    format!("buffer {i} has {} bytes, its byteLength says {declared}", d.len()),
+                    format!(
+                        "buffer {i} has {} bytes, its byteLength says {declared}",
+                        d.len()
+                    ),
                 ));
             }
         }
@@ -294,7 +319,12 @@ impl AccessorData<'_> {
 
     /// Every value as f64, normalized integers mapped when the accessor says so.
     pub fn f64s(&self) -> Result<Vec<f64>, String> {
-        Ok(read_f64s(&self.view()?, self.ty, self.components, self.normalized))
+        Ok(read_f64s(
+            &self.view()?,
+            self.ty,
+            self.components,
+            self.normalized,
+        ))
     }
 }
 
@@ -325,7 +355,8 @@ impl<'a> Document<'a> {
             }
         };
         let mut visited = vec![false; root.nodes.len()];
-        let mut stack: Vec<(usize, Transform)> = starts.into_iter().rev().map(|n| (n, *base)).collect();
+        let mut stack: Vec<(usize, Transform)> =
+            starts.into_iter().rev().map(|n| (n, *base)).collect();
         let mut out = Vec::new();
         while let Some((index, parent)) = stack.pop() {
             let node = root
@@ -333,7 +364,9 @@ impl<'a> Document<'a> {
                 .get(index)
                 .ok_or_else(|| format!("node {index} does not exist"))?;
             if std::mem::replace(&mut visited[index], true) {
-                return Err(format!("node {index} is reached twice: the node hierarchy is not a tree"));
+                return Err(format!(
+                    "node {index} is reached twice: the node hierarchy is not a tree"
+                ));
             }
             let global = parent.mul(&self.node_matrix(index)?);
             for child in node.children.iter().flatten().rev() {
@@ -348,7 +381,10 @@ impl<'a> Document<'a> {
 
     /// A node's local transform from the raw JSON, in f64.
     fn node_matrix(&self, index: usize) -> Result<Transform, String> {
-        let node = self.raw.pointer(&format!("/nodes/{index}")).unwrap_or(&Value::Null);
+        let node = self
+            .raw
+            .pointer(&format!("/nodes/{index}"))
+            .unwrap_or(&Value::Null);
         let bad = || format!("node {index} has a malformed or non-finite transform");
         let m = if let Some(m) = node.get("matrix") {
             Transform(numbers::<16>(m).ok_or_else(bad)?)
@@ -372,7 +408,10 @@ impl<'a> Document<'a> {
 
     /// The bytes of a buffer view (decompressed when EXT_meshopt_compression applies) and its
     /// stride.
-    pub(crate) fn view(&self, index: usize) -> Result<(Cow<'_, [u8]>, Option<usize>), PrimitiveError> {
+    pub(crate) fn view(
+        &self,
+        index: usize,
+    ) -> Result<(Cow<'_, [u8]>, Option<usize>), PrimitiveError> {
         let view = self
             .root
             .buffer_views
@@ -386,15 +425,29 @@ impl<'a> Document<'a> {
         }) {
             let decoded = crate::meshopt::decode_view(ext, &self.buffers)
                 .map_err(|m| PrimitiveError::Invalid(format!("buffer view {index}: {m}")))?;
-            let stride = stride.or_else(|| ext.get("byteStride").and_then(Value::as_u64).map(|s| s as usize));
+            let stride = stride.or_else(|| {
+                ext.get("byteStride")
+                    .and_then(Value::as_u64)
+                    .map(|s| s as usize)
+            });
             return Ok((Cow::Owned(decoded), stride));
         }
         let buffer = self
             .buffers
             .get(view.buffer.value())
-            .ok_or_else(|| format!("buffer view {index}: buffer {} does not exist", view.buffer.value()))?
+            .ok_or_else(|| {
+                format!(
+                    "buffer view {index}: buffer {} does not exist",
+                    view.buffer.value()
+                )
+            })?
             .as_ref()
-            .ok_or_else(|| format!("buffer view {index}: buffer {} has no data", view.buffer.value()))?;
+            .ok_or_else(|| {
+                format!(
+                    "buffer view {index}: buffer {} has no data",
+                    view.buffer.value()
+                )
+            })?;
         let start = view.byte_offset.map_or(0, |o| o.0);
         let end = start.checked_add(view.byte_length.0);
         match end {
@@ -411,14 +464,20 @@ impl<'a> Document<'a> {
     }
 
     /// An accessor's data; `max_count` bounds accessors without a buffer view (all zeros).
-    pub fn accessor(&self, index: usize, max_count: usize) -> Result<AccessorData<'_>, PrimitiveError> {
+    pub fn accessor(
+        &self,
+        index: usize,
+        max_count: usize,
+    ) -> Result<AccessorData<'_>, PrimitiveError> {
         let accessor = self
             .root
             .accessors
             .get(index)
             .ok_or_else(|| format!("accessor {index} does not exist"))?;
         if accessor.sparse.is_some() {
-            return Err(PrimitiveError::Unsupported(format!("accessor {index} is sparse")));
+            return Err(PrimitiveError::Unsupported(format!(
+                "accessor {index} is sparse"
+            )));
         }
         let ty = match accessor.component_type {
             Checked::Valid(t) => ComponentType::from_gl(t.0.as_gl_enum()),
@@ -503,15 +562,24 @@ impl<'a> Document<'a> {
             None => None,
             Some(i) => {
                 let data = self.accessor(i.value(), 0)?;
-                if data.components != 1 || !matches!(data.ty, ComponentType::U8 | ComponentType::U16 | ComponentType::U32) {
-                    return Err("indices are not unsigned integer scalars".to_string().into());
+                if data.components != 1
+                    || !matches!(
+                        data.ty,
+                        ComponentType::U8 | ComponentType::U16 | ComponentType::U32
+                    )
+                {
+                    return Err("indices are not unsigned integer scalars"
+                        .to_string()
+                        .into());
                 }
                 let view = data.view()?;
                 let mut order = Vec::with_capacity(view.len());
                 for k in 0..view.len() {
                     let v = data.ty.read_f64(view.element(k)) as usize;
                     if v >= vertex_count {
-                        return Err(format!("index {v} is beyond the {vertex_count} vertices").into());
+                        return Err(
+                            format!("index {v} is beyond the {vertex_count} vertices").into()
+                        );
                     }
                     order.push(v);
                 }
@@ -528,7 +596,11 @@ impl<'a> Document<'a> {
         out.positions = (0..point_count)
             .map(|k| {
                 let v = gather(k) * 3;
-                global.apply_point([position_values[v], position_values[v + 1], position_values[v + 2]])
+                global.apply_point([
+                    position_values[v],
+                    position_values[v + 1],
+                    position_values[v + 2],
+                ])
             })
             .collect();
 
@@ -549,7 +621,12 @@ impl<'a> Document<'a> {
                     .map(|k| {
                         let v = &values[gather(k) * c..gather(k) * c + c];
                         let alpha = if c == 4 { unit_to_u8(v[3]) } else { 255 };
-                        [linear_to_srgb8(v[0]), linear_to_srgb8(v[1]), linear_to_srgb8(v[2]), alpha]
+                        [
+                            linear_to_srgb8(v[0]),
+                            linear_to_srgb8(v[1]),
+                            linear_to_srgb8(v[2]),
+                            alpha,
+                        ]
                     })
                     .collect()
             }
@@ -575,15 +652,25 @@ impl<'a> Document<'a> {
 
         let (attributes, notes) = crate::metadata::read(self, raw_primitive, vertex_count)?;
         for attribute in attributes {
-            out.attributes.push(gather_attribute(attribute, point_count, &gather));
+            out.attributes
+                .push(gather_attribute(attribute, point_count, &gather));
         }
-        out.notes.extend(notes.into_iter().map(|n| format!("{at}: {n}")));
+        out.notes
+            .extend(notes.into_iter().map(|n| format!("{at}: {n}")));
         Ok(out)
     }
 
-    pub fn check_count(&self, data: &AccessorData, vertex_count: usize, name: &str) -> Result<(), String> {
+    pub fn check_count(
+        &self,
+        data: &AccessorData,
+        vertex_count: usize,
+        name: &str,
+    ) -> Result<(), String> {
         if data.count != vertex_count {
-            return Err(format!("{name} has {} elements for {vertex_count} vertices", data.count));
+            return Err(format!(
+                "{name} has {} elements for {vertex_count} vertices",
+                data.count
+            ));
         }
         Ok(())
     }
@@ -598,10 +685,14 @@ fn gather_attribute(
     let c = attribute.components;
     let values = match attribute.values {
         AttributeValues::Int(v) => AttributeValues::Int(
-            (0..point_count).flat_map(|k| v[gather(k) * c..gather(k) * c + c].to_vec()).collect(),
+            (0..point_count)
+                .flat_map(|k| v[gather(k) * c..gather(k) * c + c].to_vec())
+                .collect(),
         ),
         AttributeValues::Float(v) => AttributeValues::Float(
-            (0..point_count).flat_map(|k| v[gather(k) * c..gather(k) * c + c].to_vec()).collect(),
+            (0..point_count)
+                .flat_map(|k| v[gather(k) * c..gather(k) * c + c].to_vec())
+                .collect(),
         ),
     };
     PointAttribute {
@@ -617,7 +708,10 @@ mod tests {
 
     #[test]
     fn data_uris_decode() {
-        assert_eq!(decode_data_uri("data:application/octet-stream;base64,AAECAw==").unwrap(), vec![0, 1, 2, 3]);
+        assert_eq!(
+            decode_data_uri("data:application/octet-stream;base64,AAECAw==").unwrap(),
+            vec![0, 1, 2, 3]
+        );
         assert_eq!(decode_data_uri("data:,hi%21").unwrap(), b"hi!".to_vec());
         assert!(decode_data_uri("data:;base64,A*").is_none());
     }

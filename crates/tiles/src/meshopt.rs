@@ -44,13 +44,17 @@ pub(crate) fn decode_view(ext: &Value, buffers: &[Option<Cow<[u8]>>]) -> Result<
     let out = &mut bytemuck::cast_slice_mut::<u32, u8>(&mut words)[..size];
     match mode {
         "ATTRIBUTES" => {
-            if stride == 0 || stride % 4 != 0 || stride > 256 {
-                return Err(format!("ATTRIBUTES stride {stride} is not a multiple of 4 up to 256"));
+            if stride == 0 || !stride.is_multiple_of(4) || stride > 256 {
+                return Err(format!(
+                    "ATTRIBUTES stride {stride} is not a multiple of 4 up to 256"
+                ));
             }
             decode_vertices(out, count, stride, encoded)?;
             match filter {
                 "NONE" => {}
-                "OCTAHEDRAL" if stride == 4 || stride == 8 => filter_in_place(out, count, stride, Filter::Octahedral),
+                "OCTAHEDRAL" if stride == 4 || stride == 8 => {
+                    filter_in_place(out, count, stride, Filter::Octahedral)
+                }
                 "QUANTIZATION" => {
                     return Err("the QUANTIZATION (quaternion) filter is not supported".into())
                 }
@@ -62,7 +66,7 @@ pub(crate) fn decode_view(ext: &Value, buffers: &[Option<Cow<[u8]>>]) -> Result<
             if !(stride == 2 || stride == 4) {
                 return Err(format!("{mode} stride {stride} is neither 2 nor 4"));
             }
-            if mode == "TRIANGLES" && count % 3 != 0 {
+            if mode == "TRIANGLES" && !count.is_multiple_of(3) {
                 return Err(format!("TRIANGLES count {count} is not a multiple of 3"));
             }
             decode_indices(out, count, stride, encoded, mode == "TRIANGLES")?;
@@ -79,7 +83,12 @@ enum Filter {
     Exponential,
 }
 
-fn decode_vertices(out: &mut [u8], count: usize, stride: usize, encoded: &[u8]) -> Result<(), String> {
+fn decode_vertices(
+    out: &mut [u8],
+    count: usize,
+    stride: usize,
+    encoded: &[u8],
+) -> Result<(), String> {
     debug_assert_eq!(out.len(), count * stride);
     // SAFETY: `out` holds exactly count × stride bytes, which is what the decoder writes; it
     // reads only `encoded.len()` bytes of `encoded` and validates them.
@@ -180,7 +189,8 @@ fn octahedral(element: &mut [u8], width: usize) {
         if width == 1 {
             element[i] = q.clamp(-127, 127) as i8 as u8;
         } else {
-            element[2 * i..2 * i + 2].copy_from_slice(&(q.clamp(-32767, 32767) as i16).to_le_bytes());
+            element[2 * i..2 * i + 2]
+                .copy_from_slice(&(q.clamp(-32767, 32767) as i16).to_le_bytes());
         }
     }
 }
@@ -198,7 +208,10 @@ mod tests {
         let ext = json!({"buffer": 0, "byteLength": encoded.len(), "byteStride": 8, "count": 100, "mode": "ATTRIBUTES"});
         let decoded = decode_view(&ext, &buffers).unwrap();
         assert_eq!(u16::from_le_bytes([decoded[8], decoded[9]]), 1);
-        assert_eq!(u16::from_le_bytes([decoded[8 * 99 + 2], decoded[8 * 99 + 3]]), 198);
+        assert_eq!(
+            u16::from_le_bytes([decoded[8 * 99 + 2], decoded[8 * 99 + 3]]),
+            198
+        );
         let huge = json!({"buffer": 0, "byteLength": encoded.len(), "byteStride": 8, "count": 1u64 << 40, "mode": "ATTRIBUTES"});
         assert!(decode_view(&huge, &buffers).is_err());
         let past = json!({"buffer": 0, "byteOffset": 1, "byteLength": encoded.len(), "byteStride": 8, "count": 100, "mode": "ATTRIBUTES"});

@@ -35,14 +35,19 @@ pub(crate) fn read(
     let schema = match root_metadata {
         Some(m) if m.get("schema").is_some() => m.get("schema"),
         Some(m) if m.get("schemaUri").is_some() => {
-            notes.push("EXT_structural_metadata schemaUri (external schema) is not read: metadata skipped".into());
+            notes.push(
+                "EXT_structural_metadata schemaUri (external schema) is not read: metadata skipped"
+                    .into(),
+            );
             None
         }
         _ => None,
     };
 
     if let Some(ids) = raw_primitive.pointer("/extensions/EXT_mesh_features/featureIds") {
-        let ids = ids.as_array().ok_or("EXT_mesh_features featureIds is not an array")?;
+        let ids = ids
+            .as_array()
+            .ok_or("EXT_mesh_features featureIds is not an array")?;
         for (i, feature) in ids.iter().enumerate() {
             let name = feature
                 .get("label")
@@ -51,23 +56,30 @@ pub(crate) fn read(
             let values: Vec<i64> = if let Some(n) = feature.get("attribute") {
                 let n = n.as_u64().ok_or("feature ID attribute is not an integer")?;
                 let semantic = format!("_FEATURE_ID_{n}");
-                let index = Document::attribute_accessor(raw_primitive, &semantic)
-                    .ok_or_else(|| format!("feature ID {i} names {semantic}, which the primitive lacks"))?;
+                let index =
+                    Document::attribute_accessor(raw_primitive, &semantic).ok_or_else(|| {
+                        format!("feature ID {i} names {semantic}, which the primitive lacks")
+                    })?;
                 let data = doc.accessor(index, vertex_count)?;
                 doc.check_count(&data, vertex_count, &semantic)?;
                 let mut plain = data;
                 plain.normalized = false;
-                plain.f64s()?.into_iter().map(|v| v.round() as i64).collect()
+                plain
+                    .f64s()?
+                    .into_iter()
+                    .map(|v| v.round() as i64)
+                    .collect()
             } else if feature.get("texture").is_some() {
-                notes.push(format!("feature ID {i} ({name}) is stored in a texture: skipped"));
+                notes.push(format!(
+                    "feature ID {i} ({name}) is stored in a texture: skipped"
+                ));
                 continue;
             } else {
                 (0..vertex_count as i64).collect()
             };
-            if let (Some(table), Some(schema)) = (
-                feature.get("propertyTable").and_then(Value::as_u64),
-                schema,
-            ) {
+            if let (Some(table), Some(schema)) =
+                (feature.get("propertyTable").and_then(Value::as_u64), schema)
+            {
                 let null_id = feature.get("nullFeatureId").and_then(Value::as_i64);
                 let (mut table_attributes, mut table_notes) =
                     property_table(doc, schema, root_metadata, table as usize, &values, null_id)?;
@@ -92,27 +104,44 @@ pub(crate) fn read(
         schema,
         root_metadata,
     ) {
-        let list = list.as_array().ok_or("propertyAttributes is not an array")?;
+        let list = list
+            .as_array()
+            .ok_or("propertyAttributes is not an array")?;
         for index in list {
-            let index = index.as_u64().ok_or("propertyAttributes holds a non-integer")? as usize;
+            let index = index
+                .as_u64()
+                .ok_or("propertyAttributes holds a non-integer")? as usize;
             let property_attribute = root_metadata
                 .get("propertyAttributes")
                 .and_then(|p| p.get(index))
                 .ok_or_else(|| format!("property attribute {index} does not exist"))?;
-            let class_name = property_attribute.get("class").and_then(Value::as_str).unwrap_or("");
-            let class = class_properties(schema, class_name)
-                .ok_or_else(|| format!("property attribute {index}: class '{class_name}' is not in the schema"))?;
-            let Some(properties) = property_attribute.get("properties").and_then(Value::as_object) else {
+            let class_name = property_attribute
+                .get("class")
+                .and_then(Value::as_str)
+                .unwrap_or("");
+            let class = class_properties(schema, class_name).ok_or_else(|| {
+                format!("property attribute {index}: class '{class_name}' is not in the schema")
+            })?;
+            let Some(properties) = property_attribute
+                .get("properties")
+                .and_then(Value::as_object)
+            else {
                 continue;
             };
             for (name, property) in properties {
                 let class_property = class.get(name).unwrap_or(&Value::Null);
-                let kind = class_property.get("type").and_then(Value::as_str).unwrap_or("SCALAR");
+                let kind = class_property
+                    .get("type")
+                    .and_then(Value::as_str)
+                    .unwrap_or("SCALAR");
                 if matches!(kind, "STRING" | "BOOLEAN") {
                     notes.push(format!("property '{name}' of type {kind}: skipped"));
                     continue;
                 }
-                let semantic = property.get("attribute").and_then(Value::as_str).unwrap_or("");
+                let semantic = property
+                    .get("attribute")
+                    .and_then(Value::as_str)
+                    .unwrap_or("");
                 let accessor = Document::attribute_accessor(raw_primitive, semantic).ok_or_else(|| {
                     format!("property '{name}' names attribute '{semantic}', which the primitive lacks")
                 })?;
@@ -143,7 +172,11 @@ pub(crate) fn read(
 }
 
 fn class_properties<'v>(schema: &'v Value, class: &str) -> Option<&'v Map<String, Value>> {
-    schema.get("classes")?.get(class)?.get("properties")?.as_object()
+    schema
+        .get("classes")?
+        .get(class)?
+        .get("properties")?
+        .as_object()
 }
 
 /// Adds an attribute, renaming it `name_2`, `name_3`, … when the name is taken.
@@ -182,7 +215,10 @@ impl Scaling {
                 .and_then(per_component)
         };
         Scaling {
-            normalized: class_property.get("normalized").and_then(Value::as_bool).unwrap_or(false),
+            normalized: class_property
+                .get("normalized")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
             offset: pick("offset"),
             scale: pick("scale"),
         }
@@ -222,19 +258,27 @@ fn property_table(
         .and_then(|t| t.get(table_index))
         .ok_or_else(|| format!("property table {table_index} does not exist"))?;
     let class_name = table.get("class").and_then(Value::as_str).unwrap_or("");
-    let class = class_properties(schema, class_name)
-        .ok_or_else(|| format!("property table {table_index}: class '{class_name}' is not in the schema"))?;
+    let class = class_properties(schema, class_name).ok_or_else(|| {
+        format!("property table {table_index}: class '{class_name}' is not in the schema")
+    })?;
     let rows = table
         .get("count")
         .and_then(Value::as_u64)
-        .ok_or_else(|| format!("property table {table_index} has no count"))? as usize;
+        .ok_or_else(|| format!("property table {table_index} has no count"))?
+        as usize;
     let Some(properties) = table.get("properties").and_then(Value::as_object) else {
         return Ok((attributes, notes));
     };
     for (name, property) in properties {
         let class_property = class.get(name).unwrap_or(&Value::Null);
-        let kind = class_property.get("type").and_then(Value::as_str).unwrap_or("");
-        let is_array = class_property.get("array").and_then(Value::as_bool).unwrap_or(false);
+        let kind = class_property
+            .get("type")
+            .and_then(Value::as_str)
+            .unwrap_or("");
+        let is_array = class_property
+            .get("array")
+            .and_then(Value::as_bool)
+            .unwrap_or(false);
         let fixed_count = class_property.get("count").and_then(Value::as_u64);
         let per_element = match kind {
             "SCALAR" | "ENUM" => 1,
@@ -245,21 +289,30 @@ fn property_table(
             "MAT3" => 9,
             "MAT4" => 16,
             _ => {
-                notes.push(format!("property table property '{name}' of type {kind}: skipped"));
+                notes.push(format!(
+                    "property table property '{name}' of type {kind}: skipped"
+                ));
                 continue;
             }
         };
         if is_array && fixed_count.is_none() {
-            notes.push(format!("property table property '{name}' is a variable-length array: skipped"));
+            notes.push(format!(
+                "property table property '{name}' is a variable-length array: skipped"
+            ));
             continue;
         }
         let components = per_element * fixed_count.filter(|_| is_array).unwrap_or(1) as usize;
         if components == 0 || components > 64 {
-            notes.push(format!("property table property '{name}' has {components} components: skipped"));
+            notes.push(format!(
+                "property table property '{name}' has {components} components: skipped"
+            ));
             continue;
         }
         let ty_name = if kind == "ENUM" {
-            let enum_type = class_property.get("enumType").and_then(Value::as_str).unwrap_or("");
+            let enum_type = class_property
+                .get("enumType")
+                .and_then(Value::as_str)
+                .unwrap_or("");
             schema
                 .get("enums")
                 .and_then(|e| e.get(enum_type))
@@ -267,10 +320,14 @@ fn property_table(
                 .and_then(Value::as_str)
                 .unwrap_or("UINT16")
         } else {
-            class_property.get("componentType").and_then(Value::as_str).unwrap_or("")
+            class_property
+                .get("componentType")
+                .and_then(Value::as_str)
+                .unwrap_or("")
         };
-        let ty = ComponentType::from_metadata_name(ty_name)
-            .ok_or_else(|| format!("property table property '{name}': unknown componentType '{ty_name}'"))?;
+        let ty = ComponentType::from_metadata_name(ty_name).ok_or_else(|| {
+            format!("property table property '{name}': unknown componentType '{ty_name}'")
+        })?;
         let view_index = property
             .get("values")
             .and_then(Value::as_u64)
@@ -280,12 +337,19 @@ fn property_table(
         let view = Strided::new(&bytes, 0, size, rows, size)
             .map_err(|e| format!("property table property '{name}': {e}"))?;
         let scaling = Scaling::of(class_property, property, components);
-        let table_values = scaling.apply(read_f64s(&view, ty, components, scaling.normalized), components);
+        let table_values = scaling.apply(
+            read_f64s(&view, ty, components, scaling.normalized),
+            components,
+        );
         let mut values = Vec::with_capacity(feature_ids.len() * components);
         for id in feature_ids {
-            let row = usize::try_from(*id).ok().filter(|r| *r < rows && Some(*id) != null_id);
+            let row = usize::try_from(*id)
+                .ok()
+                .filter(|r| *r < rows && Some(*id) != null_id);
             match row {
-                Some(r) => values.extend_from_slice(&table_values[r * components..(r + 1) * components]),
+                Some(r) => {
+                    values.extend_from_slice(&table_values[r * components..(r + 1) * components])
+                }
                 None => values.extend(std::iter::repeat_n(f64::NAN, components)),
             }
         }

@@ -106,21 +106,18 @@ pub fn decode(bytes: &[u8], context: &ContentContext) -> Result<TilePoints, Tile
     out.colors = read_colors(&table, points).map_err(invalid)?;
     out.normals = read_normals(&table, points, context).map_err(invalid)?;
 
-    let batch_ids = match table
+    let batch_ids = table
         .per_point("BATCH_ID", batch_id_type(&ft).map_err(invalid)?, 1, points)
         .map_err(invalid)?
-    {
-        Some((view, ty)) => Some(
+        .map(|(view, ty)| {
             (0..view.len())
                 .map(|i| ty.read_f64(view.element(i)) as u64)
-                .collect::<Vec<u64>>(),
-        ),
-        None => None,
-    };
-    let batch_length = match table.global("BATCH_LENGTH", ComponentType::U32, 1).map_err(invalid)? {
-        Some(v) => Some(v[0] as usize),
-        None => None,
-    };
+                .collect::<Vec<u64>>()
+        });
+    let batch_length = table
+        .global("BATCH_LENGTH", ComponentType::U32, 1)
+        .map_err(invalid)?
+        .map(|v| v[0] as usize);
     let feature_count = match (&batch_ids, batch_length) {
         (Some(_), Some(n)) => n,
         (Some(ids), None) => {
@@ -145,7 +142,8 @@ pub fn decode(bytes: &[u8], context: &ContentContext) -> Result<TilePoints, Tile
         });
     }
     if !bt_json.is_empty() {
-        let bt = parse_json_object(bt_json).map_err(|e| invalid(format!("batch table JSON: {e}")))?;
+        let bt =
+            parse_json_object(bt_json).map_err(|e| invalid(format!("batch table JSON: {e}")))?;
         if let Some(Value::Object(ext)) = bt.get("extensions") {
             if ext.contains_key(DRACO) {
                 return Err(TilesError::unsupported(
@@ -195,14 +193,21 @@ fn byte_offset(value: &Value, name: &str) -> Result<Option<usize>, String> {
             Some(o) => usize::try_from(o)
                 .map(Some)
                 .map_err(|_| format!("{name}.byteOffset {o} is too large")),
-            None => Err(format!("{name}.byteOffset {v} is not a non-negative integer")),
+            None => Err(format!(
+                "{name}.byteOffset {v} is not a non-negative integer"
+            )),
         },
     }
 }
 
 impl<'a> FeatureTable<'a> {
     /// A global semantic of `count` values: a JSON number or array, or a binary reference.
-    fn global(&self, name: &str, ty: ComponentType, count: usize) -> Result<Option<Vec<f64>>, String> {
+    fn global(
+        &self,
+        name: &str,
+        ty: ComponentType,
+        count: usize,
+    ) -> Result<Option<Vec<f64>>, String> {
         let Some(value) = self.json.get(name) else {
             return Ok(None);
         };
@@ -210,7 +215,10 @@ impl<'a> FeatureTable<'a> {
             Value::Number(n) => vec![n.as_f64().unwrap_or(f64::NAN)],
             Value::Array(items) => items
                 .iter()
-                .map(|v| v.as_f64().ok_or_else(|| format!("{name} holds a non-number {v}")))
+                .map(|v| {
+                    v.as_f64()
+                        .ok_or_else(|| format!("{name} holds a non-number {v}"))
+                })
                 .collect::<Result<_, _>>()?,
             Value::Object(_) => {
                 let offset = byte_offset(value, name)?
@@ -220,10 +228,17 @@ impl<'a> FeatureTable<'a> {
                     .map_err(|e| format!("{name} in the feature table binary: {e}"))?;
                 read_f64s(&view, ty, count, false)
             }
-            other => return Err(format!("{name} is {other}, not a number, array or reference")),
+            other => {
+                return Err(format!(
+                    "{name} is {other}, not a number, array or reference"
+                ))
+            }
         };
         if numbers.len() != count {
-            return Err(format!("{name} has {} values instead of {count}", numbers.len()));
+            return Err(format!(
+                "{name} has {} values instead of {count}",
+                numbers.len()
+            ));
         }
         if let Some(bad) = numbers.iter().find(|v| !v.is_finite()) {
             return Err(format!("{name} holds a non-finite value {bad}"));
@@ -271,30 +286,35 @@ fn read_positions(
 ) -> Result<Vec<[f64; 3]>, String> {
     let rtc = table.global("RTC_CENTER", ComponentType::F32, 3)?;
     let rtc = rtc.map_or([0.0; 3], |v| [v[0], v[1], v[2]]);
-    let local: Vec<[f64; 3]> = if let Some((view, ty)) = table.per_point("POSITION", ComponentType::F32, 3, points)? {
-        read_f64s(&view, ty, 3, false)
-            .chunks_exact(3)
-            .map(|p| [p[0], p[1], p[2]])
-            .collect()
-    } else if let Some((view, ty)) =
-        table.per_point("POSITION_QUANTIZED", ComponentType::U16, 3, points)?
-    {
-        let offset = table
-            .global("QUANTIZED_VOLUME_OFFSET", ComponentType::F32, 3)?
-            .ok_or("POSITION_QUANTIZED without QUANTIZED_VOLUME_OFFSET")?;
-        let scale = table
-            .global("QUANTIZED_VOLUME_SCALE", ComponentType::F32, 3)?
-            .ok_or("POSITION_QUANTIZED without QUANTIZED_VOLUME_SCALE")?;
-        read_f64s(&view, ty, 3, false)
-            .chunks_exact(3)
-            .map(|q| [0, 1, 2].map(|i| offset[i] + q[i] * scale[i] / 65535.0))
-            .collect()
-    } else {
-        return Err("feature table has neither POSITION nor POSITION_QUANTIZED".into());
-    };
+    let local: Vec<[f64; 3]> =
+        if let Some((view, ty)) = table.per_point("POSITION", ComponentType::F32, 3, points)? {
+            read_f64s(&view, ty, 3, false)
+                .chunks_exact(3)
+                .map(|p| [p[0], p[1], p[2]])
+                .collect()
+        } else if let Some((view, ty)) =
+            table.per_point("POSITION_QUANTIZED", ComponentType::U16, 3, points)?
+        {
+            let offset = table
+                .global("QUANTIZED_VOLUME_OFFSET", ComponentType::F32, 3)?
+                .ok_or("POSITION_QUANTIZED without QUANTIZED_VOLUME_OFFSET")?;
+            let scale = table
+                .global("QUANTIZED_VOLUME_SCALE", ComponentType::F32, 3)?
+                .ok_or("POSITION_QUANTIZED without QUANTIZED_VOLUME_SCALE")?;
+            read_f64s(&view, ty, 3, false)
+                .chunks_exact(3)
+                .map(|q| [0, 1, 2].map(|i| offset[i] + q[i] * scale[i] / 65535.0))
+                .collect()
+        } else {
+            return Err("feature table has neither POSITION nor POSITION_QUANTIZED".into());
+        };
     Ok(local
         .into_iter()
-        .map(|p| context.world.apply_point([p[0] + rtc[0], p[1] + rtc[1], p[2] + rtc[2]]))
+        .map(|p| {
+            context
+                .world
+                .apply_point([p[0] + rtc[0], p[1] + rtc[1], p[2] + rtc[2]])
+        })
         .collect())
 }
 
@@ -321,7 +341,12 @@ fn read_colors(table: &FeatureTable, points: usize) -> Result<Vec<[u8; 4]>, Stri
             .map(|i| {
                 let e = view.element(i);
                 let c = u16::from_le_bytes([e[0], e[1]]);
-                [widen(c >> 11, 31), widen((c >> 5) & 63, 63), widen(c & 31, 31), 255]
+                [
+                    widen(c >> 11, 31),
+                    widen((c >> 5) & 63, 63),
+                    widen(c & 31, 31),
+                    255,
+                ]
             })
             .collect());
     }
@@ -366,7 +391,11 @@ fn read_normals(
 /// An octahedron-encoded unit vector (two bytes, each mapped to [−1, 1]).
 pub fn oct_decode(x: u8, y: u8) -> [f64; 3] {
     let sign = |v: f64| if v < 0.0 { -1.0 } else { 1.0 };
-    let mut v = [x as f64 / 255.0 * 2.0 - 1.0, y as f64 / 255.0 * 2.0 - 1.0, 0.0];
+    let mut v = [
+        x as f64 / 255.0 * 2.0 - 1.0,
+        y as f64 / 255.0 * 2.0 - 1.0,
+        0.0,
+    ];
     v[2] = 1.0 - v[0].abs() - v[1].abs();
     if v[2] < 0.0 {
         let (a, b) = (v[0], v[1]);

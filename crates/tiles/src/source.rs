@@ -268,7 +268,10 @@ mod tests {
 
     #[test]
     fn resolves_relative_references_against_the_referring_file() {
-        assert_eq!(resolve_uri("tileset.json", "points/r0.pnts"), "points/r0.pnts");
+        assert_eq!(
+            resolve_uri("tileset.json", "points/r0.pnts"),
+            "points/r0.pnts"
+        );
         assert_eq!(
             resolve_uri("external/subtree.json", "../points/r0.pnts"),
             "points/r0.pnts"
@@ -294,7 +297,10 @@ mod tests {
     #[test]
     fn local_paths_drop_queries_and_decode_escapes() {
         let source = LocalSource::new("/data");
-        assert_eq!(source.path_of("a%20b/c.pnts?x=1"), PathBuf::from("/data/a b/c.pnts"));
+        assert_eq!(
+            source.path_of("a%20b/c.pnts?x=1"),
+            PathBuf::from("/data/a b/c.pnts")
+        );
         assert_eq!(source.path_of("file:///t/x.glb"), PathBuf::from("/t/x.glb"));
         assert_eq!(percent_decode("%4"), "%4");
         assert_eq!(percent_decode("a%2"), "a%2");

@@ -201,11 +201,14 @@ impl Tileset {
         tile: usize,
         content: usize,
     ) -> Result<TilePoints, TilesError> {
-        let t = self.tiles.get(tile).ok_or_else(|| TilesError::InvalidTile {
-            uri: self.files.first().map_or(String::new(), |f| f.uri.clone()),
-            tile: format!("#{tile}"),
-            message: format!("no such tile: the tileset has {}", self.tiles.len()),
-        })?;
+        let t = self
+            .tiles
+            .get(tile)
+            .ok_or_else(|| TilesError::InvalidTile {
+                uri: self.files.first().map_or(String::new(), |f| f.uri.clone()),
+                tile: format!("#{tile}"),
+                message: format!("no such tile: the tileset has {}", self.tiles.len()),
+            })?;
         let file = &self.files[t.file];
         let wrap = |e: TilesError| TilesError::Tile {
             tileset: file.uri.clone(),
@@ -230,9 +233,15 @@ impl Tileset {
     }
 
     /// Decodes every content of a tile, one [`TilePoints`] each.
-    pub fn read_tile(&self, source: &dyn TileSource, tile: usize) -> Result<Vec<TilePoints>, TilesError> {
+    pub fn read_tile(
+        &self,
+        source: &dyn TileSource,
+        tile: usize,
+    ) -> Result<Vec<TilePoints>, TilesError> {
         let count = self.tiles.get(tile).map_or(0, |t| t.contents.len());
-        (0..count).map(|c| self.read_content(source, tile, c)).collect()
+        (0..count)
+            .map(|c| self.read_content(source, tile, c))
+            .collect()
     }
 }
 
@@ -279,15 +288,19 @@ impl Loader<'_> {
             });
         }
         let bytes = self.source.read(uri)?;
-        let json: TilesetJson = serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
-            uri: uri.to_string(),
-            source,
-        })?;
+        let json: TilesetJson =
+            serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
+                uri: uri.to_string(),
+                source,
+            })?;
         let major = json.asset.version.split('.').next().unwrap_or("");
         if !(major == "0" || major == "1") {
             return Err(TilesError::unsupported(
                 uri,
-                format!("3D Tiles version {} (1.0 and 1.1 are read)", json.asset.version),
+                format!(
+                    "3D Tiles version {} (1.0 and 1.1 are read)",
+                    json.asset.version
+                ),
             ));
         }
         let unknown: Vec<&String> = json
@@ -306,7 +319,11 @@ impl Loader<'_> {
             Some("Z") | Some("z") => UpAxis::Z,
             Some("X") | Some("x") => UpAxis::X,
             Some(other) => {
-                return Err(TilesError::tile(uri, "asset", format!("gltfUpAxis '{other}' is not X, Y or Z")))
+                return Err(TilesError::tile(
+                    uri,
+                    "asset",
+                    format!("gltfUpAxis '{other}' is not X, Y or Z"),
+                ))
             }
         };
         let file = self.tileset.files.len();
@@ -342,7 +359,10 @@ impl Loader<'_> {
         if parent.depth > self.limits.max_depth {
             return Err(TilesError::Limit {
                 uri: file_uri.to_string(),
-                message: format!("tile {path} is more than {} levels deep", self.limits.max_depth),
+                message: format!(
+                    "tile {path} is more than {} levels deep",
+                    self.limits.max_depth
+                ),
             });
         }
         if self.tileset.tiles.len() >= self.limits.max_tiles {
@@ -360,11 +380,14 @@ impl Loader<'_> {
         let local = match &json.transform {
             None => Transform::IDENTITY,
             Some(v) => {
-                let m: [f64; 16] = v.as_slice().try_into().map_err(|_| TilesError::BadTransform {
-                    uri: file_uri.to_string(),
-                    tile: path.clone(),
-                    message: format!("has {} numbers instead of 16", v.len()),
-                })?;
+                let m: [f64; 16] =
+                    v.as_slice()
+                        .try_into()
+                        .map_err(|_| TilesError::BadTransform {
+                            uri: file_uri.to_string(),
+                            tile: path.clone(),
+                            message: format!("has {} numbers instead of 16", v.len()),
+                        })?;
                 Transform(m)
             }
         };
@@ -391,7 +414,9 @@ impl Loader<'_> {
             .geometric_error
             .ok_or_else(|| fail("has no geometricError".into()))?;
         if !(geometric_error >= 0.0 && geometric_error.is_finite()) {
-            return Err(fail(format!("geometricError {geometric_error} is negative or not finite")));
+            return Err(fail(format!(
+                "geometricError {geometric_error} is negative or not finite"
+            )));
         }
         let refine = match json.refine.as_deref() {
             None => parent.refine.unwrap_or(Refine::Replace),
@@ -415,7 +440,11 @@ impl Loader<'_> {
             }
             let volume = match &content.bounding_volume {
                 None => None,
-                Some(v) => Some(volume_spec(v).map_err(|m| fail(format!("content {m}")))?.to_world(&world)),
+                Some(v) => Some(
+                    volume_spec(v)
+                        .map_err(|m| fail(format!("content {m}")))?
+                        .to_world(&world),
+                ),
             };
             contents.push(ContentRef {
                 uri: resolved,
@@ -446,7 +475,13 @@ impl Loader<'_> {
             depth: parent.depth + 1,
         };
         for (i, child) in json.children.iter().enumerate() {
-            self.add_tile(child, file, file_uri, format!("{path}.children[{i}]"), below)?;
+            self.add_tile(
+                child,
+                file,
+                file_uri,
+                format!("{path}.children[{i}]"),
+                below,
+            )?;
         }
         for uri in external {
             self.load_file(&uri, Some(index), world, Some(refine), parent.depth + 1)?;
@@ -469,5 +504,7 @@ fn volume_spec(v: &VolumeJson) -> Result<VolumeSpec, String> {
 
 /// True when a content URI names a tileset JSON file (an external tileset).
 fn is_tileset_uri(uri: &str) -> bool {
-    strip_query_and_fragment(uri).to_ascii_lowercase().ends_with(".json")
+    strip_query_and_fragment(uri)
+        .to_ascii_lowercase()
+        .ends_with(".json")
 }

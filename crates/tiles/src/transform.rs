@@ -42,9 +42,21 @@ impl Transform {
     pub fn from_trs(t: [f64; 3], q: [f64; 4], s: [f64; 3]) -> Transform {
         let [x, y, z, w] = q;
         let r = [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)],
-            [2.0 * (x * y - z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + x * w)],
-            [2.0 * (x * z + y * w), 2.0 * (y * z - x * w), 1.0 - 2.0 * (x * x + y * y)],
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y + z * w),
+                2.0 * (x * z - y * w),
+            ],
+            [
+                2.0 * (x * y - z * w),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z + x * w),
+            ],
+            [
+                2.0 * (x * z + y * w),
+                2.0 * (y * z - x * w),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
         ];
         let mut m = [0.0; 16];
         for c in 0..3 {
@@ -142,7 +154,7 @@ impl Transform {
         // on unit vectors so that huge or tiny scales do not overflow).
         let unit = [0, 1, 2].map(|c| self.column(c).map(|v| v / lengths[c]));
         let flatness = dot(unit[0], cross(unit[1], unit[2])).abs();
-        if !(flatness > 1e-12) {
+        if flatness.is_nan() || flatness <= 1e-12 {
             return Some(format!(
                 "is degenerate: its axes are (nearly) coplanar (determinant of the unit axes {flatness:e})"
             ));

@@ -273,9 +273,8 @@ impl BoundingVolume {
         if det.abs() < 1e-300 {
             // A flat box (a single point or a plane): fall back to its axis-aligned box.
             let aabb = self.aabb();
-            return (0..3).all(|i| {
-                p[i] >= aabb.min[i] - tolerance && p[i] <= aabb.max[i] + tolerance
-            });
+            return (0..3)
+                .all(|i| p[i] >= aabb.min[i] - tolerance && p[i] <= aabb.max[i] + tolerance);
         }
         // t = A⁻¹ d: the rows of A⁻¹ are the normal matrix's columns over |det|.
         let n = a.normal_matrix();
@@ -303,7 +302,9 @@ mod tests {
             for lat in [-0.1, 0.0, 0.1] {
                 for h in [0.0, 50.0, 100.0] {
                     let p = geodetic_to_ecef(lon, lat, h);
-                    assert!((0..3).all(|i| p[i] >= aabb.min[i] - 1e-6 && p[i] <= aabb.max[i] + 1e-6));
+                    assert!(
+                        (0..3).all(|i| p[i] >= aabb.min[i] - 1e-6 && p[i] <= aabb.max[i] + 1e-6)
+                    );
                 }
             }
         }
@@ -319,10 +320,9 @@ mod tests {
 
     #[test]
     fn volumes_follow_the_transform() {
-        let spec = VolumeSpec::from_box(&[
-            1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0,
-        ])
-        .unwrap();
+        let spec =
+            VolumeSpec::from_box(&[1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0])
+                .unwrap();
         let t = Transform([
             2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 10.0, 0.0, 0.0, 1.0,
         ]);
@@ -332,7 +332,9 @@ mod tests {
         assert!((v.sphere.radius - (4.0f64 + 16.0 + 36.0).sqrt()).abs() < 1e-12);
         assert!(v.contains([13.9, 3.9, -5.9], 0.0));
         assert!(!v.contains([14.1, 0.0, 0.0], 0.0));
-        let s = VolumeSpec::from_sphere(&[0.0, 0.0, 0.0, 1.0]).unwrap().to_world(&t);
+        let s = VolumeSpec::from_sphere(&[0.0, 0.0, 0.0, 1.0])
+            .unwrap()
+            .to_world(&t);
         assert_eq!(s.sphere.radius, 2.0);
         assert!(VolumeSpec::from_box(&[0.0; 11]).is_err());
         assert!(VolumeSpec::from_sphere(&[0.0, 0.0, 0.0, -1.0]).is_err());

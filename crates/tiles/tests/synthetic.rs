@@ -56,17 +56,39 @@ fn pnts_quantized_positions_rtc_colours_normals_and_batches() {
     let bytes = pnts(&ft, &bin, Some(&bt), &bt_bin);
     let mut ctx = context("q.pnts");
     // A tile transform scaling by 2 about the origin and translating by (0, 0, 5).
-    ctx.world = Transform([2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 5.0, 1.0]);
+    ctx.world = Transform([
+        2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 5.0, 1.0,
+    ]);
     let points = pointlet_tiles::content::decode(&bytes, &ctx).unwrap();
-    assert!(close(points.positions[0], [2200.0, 400.0, 605.0], 1e-9), "{:?}", points.positions);
+    assert!(
+        close(points.positions[0], [2200.0, 400.0, 605.0], 1e-9),
+        "{:?}",
+        points.positions
+    );
     let y = 200.0 + 32768.0 * 10.0 / 65535.0;
-    assert!(close(points.positions[1], [2220.0, 2.0 * y, 625.0], 1e-9), "{:?}", points.positions);
+    assert!(
+        close(points.positions[1], [2220.0, 2.0 * y, 625.0], 1e-9),
+        "{:?}",
+        points.positions
+    );
     assert_eq!(points.colors, vec![[255, 255, 255, 255], [255, 0, 0, 255]]);
     let normals = points.normals.clone().unwrap();
-    assert!(normals[0][2] > 0.999 && normals[1][0] < -0.999, "{normals:?}");
-    assert_eq!(points.attribute("BATCH_ID").unwrap().values, AttributeValues::Int(vec![1, 0]));
-    assert_eq!(points.attribute("class").unwrap().values, AttributeValues::Int(vec![6, 5]));
-    assert_eq!(points.attribute("height").unwrap().values, AttributeValues::Float(vec![2.5, 1.5]));
+    assert!(
+        normals[0][2] > 0.999 && normals[1][0] < -0.999,
+        "{normals:?}"
+    );
+    assert_eq!(
+        points.attribute("BATCH_ID").unwrap().values,
+        AttributeValues::Int(vec![1, 0])
+    );
+    assert_eq!(
+        points.attribute("class").unwrap().values,
+        AttributeValues::Int(vec![6, 5])
+    );
+    assert_eq!(
+        points.attribute("height").unwrap().values,
+        AttributeValues::Float(vec![2.5, 1.5])
+    );
 }
 
 #[test]
@@ -75,13 +97,18 @@ fn pnts_rgba_over_rgb_and_constant_colour() {
     let mut bin = positions.clone();
     bin.extend_from_slice(&[1, 2, 3, 4, 9, 9, 9]);
     let ft = json!({"POINTS_LENGTH": 1, "POSITION": {"byteOffset": 0}, "RGBA": {"byteOffset": 12}, "RGB": {"byteOffset": 16}});
-    let points = pointlet_tiles::content::decode(&pnts(&ft, &bin, None, &[]), &context("c.pnts")).unwrap();
+    let points =
+        pointlet_tiles::content::decode(&pnts(&ft, &bin, None, &[]), &context("c.pnts")).unwrap();
     assert_eq!(points.colors, vec![[1, 2, 3, 4]]);
     let ft = json!({"POINTS_LENGTH": 1, "POSITION": {"byteOffset": 0}, "CONSTANT_RGBA": [10, 20, 30, 40]});
-    let points = pointlet_tiles::content::decode(&pnts(&ft, &positions, None, &[]), &context("c.pnts")).unwrap();
+    let points =
+        pointlet_tiles::content::decode(&pnts(&ft, &positions, None, &[]), &context("c.pnts"))
+            .unwrap();
     assert_eq!(points.colors, vec![[10, 20, 30, 40]]);
     let ft = json!({"POINTS_LENGTH": 1, "POSITION": {"byteOffset": 0}});
-    let points = pointlet_tiles::content::decode(&pnts(&ft, &positions, None, &[]), &context("c.pnts")).unwrap();
+    let points =
+        pointlet_tiles::content::decode(&pnts(&ft, &positions, None, &[]), &context("c.pnts"))
+            .unwrap();
     assert_eq!(points.colors, vec![[255; 4]]);
     assert!(points.normals.is_none());
 }
@@ -159,16 +186,37 @@ fn glb_quantization_nodes_rtc_y_up_indices_and_metadata() {
     // Vertex 0: (100, 0, 0) + (0, 0, 10) = (100, 0, 10) → (100, −10, 0).
     let a = 6378137.0;
     assert_eq!(points.len(), 3);
-    assert!(close(points.positions[0], [a, 90.0, 100.0], 1e-9), "{:?}", points.positions);
-    assert!(close(points.positions[1], [a + 100.0, -10.0, 0.0], 1e-9), "{:?}", points.positions);
+    assert!(
+        close(points.positions[0], [a, 90.0, 100.0], 1e-9),
+        "{:?}",
+        points.positions
+    );
+    assert!(
+        close(points.positions[1], [a + 100.0, -10.0, 0.0], 1e-9),
+        "{:?}",
+        points.positions
+    );
     assert!(close(points.positions[2], points.positions[0], 0.0));
     // Linear 0.21586 is sRGB 128.
     assert_eq!(points.colors[1], [255, 0, 0, 255]);
     assert_eq!(points.colors[0], [128, 128, 128, 255]);
-    assert_eq!(points.attribute("fid").unwrap().values, AttributeValues::Int(vec![0, 1, 0]));
-    assert_eq!(points.attribute("intensity").unwrap().values, AttributeValues::Int(vec![20, 10, 20]));
+    assert_eq!(
+        points.attribute("fid").unwrap().values,
+        AttributeValues::Int(vec![0, 1, 0])
+    );
+    assert_eq!(
+        points.attribute("intensity").unwrap().values,
+        AttributeValues::Int(vec![20, 10, 20])
+    );
     assert_eq!(attribute_f64(&points, "weight"), vec![15.0, 17.0, 15.0]);
-    assert!(points.notes.iter().any(|n| n.contains("Triangles") && n.contains("skipped")), "{:?}", points.notes);
+    assert!(
+        points
+            .notes
+            .iter()
+            .any(|n| n.contains("Triangles") && n.contains("skipped")),
+        "{:?}",
+        points.notes
+    );
 }
 
 #[test]
@@ -176,7 +224,7 @@ fn glb_with_meshopt_compressed_positions() {
     let vertices: Vec<[f32; 3]> = (0..50).map(|i| [i as f32, 2.0 * i as f32, 0.5]).collect();
     let encoded = meshopt::encode_vertex_buffer(&vertices).unwrap();
     let mut bin = encoded.clone();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let json = json!({
@@ -200,10 +248,14 @@ fn glb_with_meshopt_compressed_positions() {
 
 #[test]
 fn unsupported_gltf_extensions_are_named() {
-    let json = json!({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]});
+    let json =
+        json!({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]});
     let e = pointlet_tiles::content::decode(&glb(&json, &[]), &context("d.glb")).unwrap_err();
     assert!(matches!(e, pointlet_tiles::TilesError::Unsupported { .. }));
-    assert!(e.to_string().contains("KHR_draco_mesh_compression") && e.to_string().contains("d.glb"), "{e}");
+    assert!(
+        e.to_string().contains("KHR_draco_mesh_compression") && e.to_string().contains("d.glb"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -219,7 +271,11 @@ fn region_volumes_and_gltf_up_axis_in_a_tileset() {
             "children": [{"boundingVolume": {"sphere": [0, 0, 0, 5]}, "geometricError": 0, "content": {"url": "x.glb"}}]
         }
     });
-    std::fs::write(dir.path().join("tileset.json"), serde_json::to_vec(&tileset).unwrap()).unwrap();
+    std::fs::write(
+        dir.path().join("tileset.json"),
+        serde_json::to_vec(&tileset).unwrap(),
+    )
+    .unwrap();
     let (tileset, _) = Tileset::open(&dir.path().join("tileset.json")).unwrap();
     let root = tileset.root();
     assert_eq!(root.refine, pointlet_tiles::Refine::Add);
@@ -227,7 +283,10 @@ fn region_volumes_and_gltf_up_axis_in_a_tileset() {
     let corner = pointlet_tiles::volume::geodetic_to_ecef(0.001, 0.701, 50.0);
     assert!((0..3).all(|i| corner[i] >= aabb.min[i] - 1e-6 && corner[i] <= aabb.max[i] + 1e-6));
     // 0.002 rad of longitude at latitude 0.7 (parallel radius ≈ 4.885e6 m): ≈ 9 770 m.
-    assert!(aabb.extent()[1] > 9_700.0 && aabb.extent()[1] < 9_850.0, "{aabb:?}");
+    assert!(
+        aabb.extent()[1] > 9_700.0 && aabb.extent()[1] < 9_850.0,
+        "{aabb:?}"
+    );
     assert_eq!(tileset.files[0].up_axis, UpAxis::Z);
     assert_eq!(tileset.tiles[1].refine, pointlet_tiles::Refine::Add);
     assert_eq!(tileset.tiles[1].contents[0].uri, "x.glb");

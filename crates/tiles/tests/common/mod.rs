@@ -8,7 +8,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub fn testdata(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../testdata")
+        .join(rel)
 }
 
 /// A source point: position, 8-bit colour and intensity.
@@ -30,7 +32,11 @@ pub fn read_las(path: &Path) -> (Vec<SourcePoint>, [f64; 3], [f64; 3]) {
             // Colours stored as 8-bit values in 16-bit fields stay as they are (py3dtiles'
             // --color_scale 256 keeps them); true 16-bit colours are shifted down.
             let c = batch.rgb[i];
-            let rgb = if wide { c.map(|v| (v >> 8) as u8) } else { c.map(|v| v as u8) };
+            let rgb = if wide {
+                c.map(|v| (v >> 8) as u8)
+            } else {
+                c.map(|v| v as u8)
+            };
             points.push(SourcePoint {
                 xyz: batch.xyz[i],
                 rgb,
@@ -65,13 +71,21 @@ pub fn decoded_points(parts: &[TilePoints]) -> Vec<Decoded> {
 }
 
 /// Every content of the given tiles, decoded.
-pub fn read_tiles(tileset: &Tileset, source: &LocalSource, tiles: impl Iterator<Item = usize>) -> Vec<TilePoints> {
+pub fn read_tiles(
+    tileset: &Tileset,
+    source: &LocalSource,
+    tiles: impl Iterator<Item = usize>,
+) -> Vec<TilePoints> {
     let mut out = Vec::new();
     for t in tiles {
         out.extend(tileset.read_tile(source, t).unwrap());
     }
     out
 }
+
+/// Colour and intensity of a source point, and of a decoded one.
+type SourceValues = ([u8; 3], u16);
+type DecodedValues = ([u8; 4], Option<f64>);
 
 /// How colours are compared.
 #[derive(Clone, Copy, Debug)]
@@ -97,11 +111,17 @@ pub fn assert_same_points(
     check_intensity: bool,
 ) -> f64 {
     assert_eq!(decoded.len(), source.len(), "point count");
-    let key = |p: [f64; 3]| -> [i64; 3] { [0, 1, 2].map(|i| ((p[i] - offset[i]) / scale[i]).round() as i64) };
+    let key = |p: [f64; 3]| -> [i64; 3] {
+        [0, 1, 2].map(|i| ((p[i] - offset[i]) / scale[i]).round() as i64)
+    };
     let mut worst: f64 = 0.0;
-    let mut by_key: BTreeMap<[i64; 3], (Vec<([u8; 3], u16)>, Vec<([u8; 4], Option<f64>)>)> = BTreeMap::new();
+    let mut by_key: BTreeMap<[i64; 3], (Vec<SourceValues>, Vec<DecodedValues>)> = BTreeMap::new();
     for s in source {
-        by_key.entry(key(s.xyz)).or_default().0.push((s.rgb, s.intensity));
+        by_key
+            .entry(key(s.xyz))
+            .or_default()
+            .0
+            .push((s.rgb, s.intensity));
     }
     for d in decoded {
         let k = key(d.xyz);
@@ -111,7 +131,10 @@ pub fn assert_same_points(
         }
         by_key.entry(k).or_default().1.push((d.rgba, d.intensity));
     }
-    assert!(worst <= tolerance, "largest deviation from the source grid {worst} > {tolerance}");
+    assert!(
+        worst <= tolerance,
+        "largest deviation from the source grid {worst} > {tolerance}"
+    );
     for (k, (mut s, mut d)) in by_key {
         assert_eq!(s.len(), d.len(), "points at grid position {k:?}");
         s.sort_by_key(|(c, i)| (*c, *i));
@@ -168,9 +191,14 @@ pub fn assert_points_in_volumes(tileset: &Tileset, source: &LocalSource) {
 }
 
 /// A pnts file from its four parts (JSON parts padded with spaces to 8 bytes).
-pub fn pnts(feature_json: &Value, feature_bin: &[u8], batch_json: Option<&Value>, batch_bin: &[u8]) -> Vec<u8> {
+pub fn pnts(
+    feature_json: &Value,
+    feature_bin: &[u8],
+    batch_json: Option<&Value>,
+    batch_bin: &[u8],
+) -> Vec<u8> {
     let pad = |mut v: Vec<u8>, with: u8| {
-        while (v.len() + 28) % 8 != 0 {
+        while !(v.len() + 28).is_multiple_of(8) {
             v.push(with);
         }
         v
@@ -180,7 +208,14 @@ pub fn pnts(feature_json: &Value, feature_bin: &[u8], batch_json: Option<&Value>
     let total = 28 + ft_json.len() + feature_bin.len() + bt_json.len() + batch_bin.len();
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"pnts");
-    for v in [1, total, ft_json.len(), feature_bin.len(), bt_json.len(), batch_bin.len()] {
+    for v in [
+        1,
+        total,
+        ft_json.len(),
+        feature_bin.len(),
+        bt_json.len(),
+        batch_bin.len(),
+    ] {
         out.extend_from_slice(&(v as u32).to_le_bytes());
     }
     out.extend_from_slice(&ft_json);
@@ -193,11 +228,11 @@ pub fn pnts(feature_json: &Value, feature_bin: &[u8], batch_json: Option<&Value>
 /// A GLB from its JSON and binary chunk.
 pub fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
     let mut j = serde_json::to_vec(json).unwrap();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
@@ -235,7 +270,11 @@ pub fn f32_bytes(values: &[f32]) -> Vec<u8> {
 }
 
 pub fn attribute_f64(points: &TilePoints, name: &str) -> Vec<f64> {
-    match &points.attribute(name).unwrap_or_else(|| panic!("no attribute {name}")).values {
+    match &points
+        .attribute(name)
+        .unwrap_or_else(|| panic!("no attribute {name}"))
+        .values
+    {
         AttributeValues::Float(v) => v.clone(),
         AttributeValues::Int(v) => v.iter().map(|x| *x as f64).collect(),
     }
