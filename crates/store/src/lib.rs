@@ -8,6 +8,7 @@
 //! - [`Store`] opens a store after validating its structure, and reads whole pointlets
 //!   (checksummed) or any range of a pointlet's shuffled order (one positioned read per stream).
 
+mod aws_profile;
 mod builder;
 mod emit;
 mod error;
