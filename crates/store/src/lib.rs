@@ -28,6 +28,7 @@ pub use error::StoreError;
 pub use format::{PointletEntry, StoreHeader, StreamInfo, StreamKind};
 pub use meta::merge_meta;
 pub use reader::{decode_positions, Store};
+pub use remote::fetch_object;
 pub use source::{is_remote, ByteSource, SourceError};
 
 /// Smallest pointlet the builder makes (paper eq. 1 clamped below).

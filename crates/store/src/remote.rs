@@ -247,3 +247,23 @@ impl ByteSource for RemoteObject {
         Ok(())
     }
 }
+
+/// The whole object at `url` (`http(s)://` or `s3://`), with the same timeouts and retries as
+/// store reads; objects over `max_bytes` are refused before their body is read.
+pub fn fetch_object(url: &str, max_bytes: u64) -> Result<Vec<u8>, SourceError> {
+    let (store, path) = store_for(url)?;
+    runtime()?.block_on(async {
+        let got = store
+            .get_opts(&path, GetOptions::default())
+            .await
+            .map_err(error)?;
+        if got.meta.size > max_bytes {
+            return Err(SourceError::Remote(format!(
+                "{} bytes, over the limit of {max_bytes}",
+                got.meta.size
+            )));
+        }
+        let bytes = got.bytes().await.map_err(error)?;
+        Ok(bytes.to_vec())
+    })
+}
