@@ -49,8 +49,17 @@ pub fn open_inputs(
     inputs: &[PathBuf],
     read: &crate::load::ReadArgs,
 ) -> Result<Vec<Box<dyn PointReader>>> {
-    let pointlet_io::Inputs { readers, skipped } =
-        pointlet_io::open_inputs(inputs, &read.options())?;
+    let mut readers = Vec::new();
+    let mut skipped = Vec::new();
+    for input in inputs {
+        if pointlet_tiles::points::is_tileset_path(input) {
+            readers.push(pointlet_engine::open_points(input, &read.options())?);
+        } else {
+            let opened = pointlet_io::open_inputs(std::slice::from_ref(input), &read.options())?;
+            readers.extend(opened.readers);
+            skipped.extend(opened.skipped);
+        }
+    }
     for s in &skipped {
         eprintln!("note: skipped {}: {}", s.path.display(), s.reason);
     }

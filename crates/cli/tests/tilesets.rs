@@ -220,3 +220,30 @@ fn tilesets_over_http_draw_like_local_ones_and_bad_servers_name_the_tile() {
         assert!(!png.exists());
     }
 }
+
+#[test]
+fn a_tileset_converts_to_a_store_of_its_points() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let from_tiles = dir.path().join("tiles.pointlet");
+    let from_las = dir.path().join("las.pointlet");
+    ok(&[
+        "convert",
+        s(&data("tiles/autzen_pnts/tileset.json")),
+        "-o",
+        s(&from_tiles),
+    ]);
+    ok(&[
+        "convert",
+        s(&data("tiles/autzen_crop.laz")),
+        "-o",
+        s(&from_las),
+    ]);
+    assert!(ok(&["info", s(&from_tiles)]).contains("1872"));
+    let one = ["--point-size", "1"];
+    let a = render(&from_tiles, &dir.path().join("a.png"), &one);
+    let b = render(&from_las, &dir.path().join("b.png"), &one);
+    assert!(
+        a == b,
+        "the store of the tileset draws differently from the LAS file's"
+    );
+}
