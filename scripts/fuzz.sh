@@ -75,6 +75,11 @@ printf '//X,Y,Z,Rf,Gf,Bf,Intensity\n1.5,2,3,1,0.5,0,200\n' > "$corpus/xyz_file/c
 printf '@x,y,z,r,g,b,intensity\n1 2 3 255 128 0 100\n4 5 6 0 10 20 30000\n' \
     > "$corpus/xyz_file/columns.xyz"
 
+seed pnts
+cp testdata/tiles/autzen_pnts/points/r3.pnts testdata/tiles/simple_pnts/points/r7.pnts \
+    "$corpus/pnts/"
+cp testdata/tiles/autzen_glb/points/r3.glb "$corpus/pnts/r3.glb"
+
 failed=()
 for t in "${targets[@]}"; do
     echo "== $t: ${secs} s"

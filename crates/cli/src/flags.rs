@@ -35,7 +35,9 @@ pub struct Given<'a>(pub &'a ArgMatches);
 
 impl Given<'_> {
     fn has(&self, id: &str) -> bool {
-        self.0.value_source(id) == Some(ValueSource::CommandLine)
+        // Subcommands share these checks without sharing every flag: an absent id is not given.
+        self.0.try_contains_id(id).unwrap_or(false)
+            && self.0.value_source(id) == Some(ValueSource::CommandLine)
     }
 
     /// Refuses any of `ids` that was typed: they apply to `to` only, not to `not_to`.

@@ -68,44 +68,63 @@ impl StoreSource {
     /// Colours of points `range` of pointlet `i` under the current scale, reading only the
     /// attribute's stream (and positions only for elevation).
     pub fn colors(&self, i: usize, range: Range<u32>) -> Result<Vec<u32>, SourceError> {
-        let scale = self.scale();
-        let n = (range.end - range.start) as usize;
-        let mut batch = PointBatch::default();
+        Ok(self.read_with_colors(i, range, false)?.1)
+    }
+
+    /// The streams colouring by the current scale reads: the attribute's (if the store has it)
+    /// and the classes (hidden classes are decided on them), positions for elevation.
+    fn color_streams(&self, scale: &ColorScale) -> Vec<StreamKind> {
+        let header = self.store.header();
+        let mut kinds = Vec::new();
         match stream_for(scale.mode) {
-            None => {
-                let q = self.store.header().quantization;
-                let positions = self
-                    .store
-                    .read_positions(i, range.clone())
-                    .map_err(|e| self.error(i, &range, e))?;
-                batch.xyz = positions.iter().map(|p| q.dequantize(*p)).collect();
-            }
-            Some(kind) if self.store.header().stream(kind).is_some() => {
-                let mut raw = Vec::new();
-                self.store
-                    .read_stream_raw(kind, i, range.clone(), &mut raw)
-                    .map_err(|e| self.error(i, &range, e))?;
-                fill_column(&mut batch, kind, &raw);
-                // Extra bytes are read point by point at the store's width.
-                batch.layout.extra_bytes = self.store.header().layout.extra_bytes;
-            }
+            None => kinds.push(StreamKind::Position),
+            Some(kind) if header.stream(kind).is_some() => kinds.push(kind),
             // The store lacks the attribute: every point draws grey.
             Some(_) => {}
         }
-        if self
-            .store
-            .header()
-            .stream(StreamKind::Classification)
-            .is_some()
+        if header.stream(StreamKind::Classification).is_some()
             && scale.mode != ColorMode::Classification
         {
-            let mut raw = Vec::new();
-            self.store
-                .read_stream_raw(StreamKind::Classification, i, range.clone(), &mut raw)
-                .map_err(|e| self.error(i, &range, e))?;
-            fill_column(&mut batch, StreamKind::Classification, &raw);
+            kinds.push(StreamKind::Classification);
         }
-        Ok((0..n).map(|k| point_color(&batch, k, &scale)).collect())
+        kinds
+    }
+
+    /// Positions (when `positions`) and colours of points `range` of pointlet `i`, every
+    /// stream read at once.
+    fn read_with_colors(
+        &self,
+        i: usize,
+        range: Range<u32>,
+        positions: bool,
+    ) -> Result<(Vec<[i32; 3]>, Vec<u32>), SourceError> {
+        let scale = self.scale();
+        let n = (range.end - range.start) as usize;
+        let mut kinds = self.color_streams(&scale);
+        if positions && !kinds.contains(&StreamKind::Position) {
+            kinds.push(StreamKind::Position);
+        }
+        let raws = self
+            .store
+            .read_streams_raw(i, range.clone(), &kinds)
+            .map_err(|e| self.error(i, &range, e))?;
+        let q = self.store.header().quantization;
+        let mut batch = PointBatch::default();
+        let mut xyz = Vec::new();
+        for (kind, raw) in kinds.iter().zip(&raws) {
+            if *kind == StreamKind::Position {
+                xyz = pointlet_store::decode_positions(raw);
+            } else {
+                fill_column(&mut batch, *kind, raw);
+            }
+        }
+        if scale.mode == ColorMode::Elevation {
+            batch.xyz = xyz.iter().map(|p| q.dequantize(*p)).collect();
+        }
+        // Extra bytes are read point by point at the store's width.
+        batch.layout.extra_bytes = self.store.header().layout.extra_bytes;
+        let colors = (0..n).map(|k| point_color(&batch, k, &scale)).collect();
+        Ok((xyz, colors))
     }
 
     fn error(&self, i: usize, range: &Range<u32>, e: impl std::fmt::Display) -> SourceError {
@@ -127,11 +146,7 @@ impl PointletSource for StoreSource {
     }
 
     fn read(&self, i: usize, range: Range<u32>, out: &mut PointletData) -> Result<(), SourceError> {
-        let positions = self
-            .store
-            .read_positions(i, range.clone())
-            .map_err(|e| self.error(i, &range, e))?;
-        let colors = self.colors(i, range.clone())?;
+        let (positions, colors) = self.read_with_colors(i, range.clone(), true)?;
         let Some(entry) = self.store.pointlets().get(i) else {
             return Err(self.error(i, &range, "no such pointlet"));
         };

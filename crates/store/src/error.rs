@@ -27,6 +27,14 @@ pub enum StoreError {
     /// A read asked for something the store does not hold (pointlet index, range, stream).
     #[error("{}: {message}", path.display())]
     Request { path: PathBuf, message: String },
+    /// The store's bytes could not be read (a local file, or a remote object: the network,
+    /// the server, a store replaced while being read).
+    #[error("{}: {what}: {cause}", path.display())]
+    Source {
+        path: PathBuf,
+        what: String,
+        cause: crate::source::SourceError,
+    },
 }
 
 impl StoreError {

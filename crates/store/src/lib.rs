@@ -15,8 +15,10 @@ pub mod format;
 mod meta;
 mod pio;
 mod reader;
+mod remote;
 mod runs;
 mod sort;
+pub mod source;
 
 pub use builder::{
     BuildConfig, BuildPhase, BuildProgress, BuildSummary, BuildTimings, StoreBuilder,
@@ -24,7 +26,8 @@ pub use builder::{
 pub use error::StoreError;
 pub use format::{PointletEntry, StoreHeader, StreamInfo, StreamKind};
 pub use meta::merge_meta;
-pub use reader::Store;
+pub use reader::{decode_positions, Store};
+pub use source::{is_remote, ByteSource, SourceError};
 
 /// Smallest pointlet the builder makes (paper eq. 1 clamped below).
 pub const MIN_POINTLET_SIZE: u64 = 1 << 8;

@@ -1,13 +1,14 @@
-//! The validating reader: positioned reads only, so one `Store` serves many threads.
+//! The validating reader: positioned reads only, so one `Store` serves many threads. Its bytes
+//! come from a [`ByteSource`]: a local file, or a remote object over HTTP(S) or S3.
 
 use crate::emit::position_bounds;
 use crate::format::{
     self, array, PointletEntry, Preamble, StoreHeader, StreamKind, PREAMBLE_LEN, TABLE_ENTRY_LEN,
 };
-use crate::{pio, StoreError};
+use crate::source::{is_remote, ByteSource, LocalFile, SourceError};
+use crate::StoreError;
 use pointlet_core::{PointBatch, WAVEFORM_BYTES};
 use rayon::prelude::*;
-use std::fs::File;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -18,7 +19,7 @@ const VERIFY_CHUNK: u64 = 8 << 20;
 #[derive(Debug)]
 pub struct Store {
     path: PathBuf,
-    file: File,
+    source: Box<dyn ByteSource>,
     header: StoreHeader,
     pointlets: Vec<PointletEntry>,
     /// CRC32 of pointlet i's bytes of stream s at `i * streams + s`.
@@ -31,12 +32,30 @@ impl Store {
     /// Opens a store and checks its structure: magic, version, length, section layout, the
     /// header, table and checksum-table CRCs, the header's schema and the pointlet table.
     /// Point data is checked by [`read_pointlet`](Self::read_pointlet) and [`verify`](Self::verify).
+    ///
+    /// `path` may also be an `http://`, `https://` or `s3://` address (see remote.rs).
     pub fn open(path: &Path) -> Result<Store, StoreError> {
-        let file = File::open(path).map_err(|e| StoreError::io(path, "opening the store", e))?;
-        let len = file
-            .metadata()
-            .map_err(|e| StoreError::io(path, "reading the file size", e))?
-            .len();
+        let opened: Result<Box<dyn ByteSource>, SourceError> = if is_remote(path) {
+            crate::remote::RemoteObject::open(&path.to_string_lossy())
+                .map(|r| Box::new(r) as Box<dyn ByteSource>)
+        } else {
+            LocalFile::open(path).map(|f| Box::new(f) as Box<dyn ByteSource>)
+        };
+        let source = opened.map_err(|cause| match cause {
+            SourceError::Io(e) => StoreError::io(path, "opening the store", e),
+            cause => StoreError::Source {
+                path: path.to_path_buf(),
+                what: "opening the store".into(),
+                cause,
+            },
+        })?;
+        Self::from_source(path, source)
+    }
+
+    /// Opens the store whose bytes `source` holds; `path` names it in messages.
+    pub fn from_source(path: &Path, source: Box<dyn ByteSource>) -> Result<Store, StoreError> {
+        let file = &*source;
+        let len = source.size();
         let bad = |m: String| StoreError::damaged(path, m);
         if len < PREAMBLE_LEN {
             return Err(bad(format!(
@@ -44,7 +63,7 @@ impl Store {
             )));
         }
         let mut pre = [0u8; PREAMBLE_LEN as usize];
-        read_at(&file, path, &mut pre, 0, "reading the preamble")?;
+        read_at(file, path, &mut pre, 0, "reading the preamble")?;
         let pre = Preamble::decode(&pre).map_err(bad)?;
         if pre.file_len != len {
             return Err(bad(format!(
@@ -65,7 +84,7 @@ impl Store {
         }
         let mut header_bytes = vec![0u8; h.len as usize];
         read_at(
-            &file,
+            file,
             path,
             &mut header_bytes,
             h.offset,
@@ -117,7 +136,7 @@ impl Store {
         // The plan lies within the (real) file length, so these allocations are bounded by it.
         let mut table = vec![0u8; plan.table.len as usize];
         read_at(
-            &file,
+            file,
             path,
             &mut table,
             plan.table.offset,
@@ -130,7 +149,7 @@ impl Store {
         drop(table);
         let mut checks = vec![0u8; plan.checksums.len as usize];
         read_at(
-            &file,
+            file,
             path,
             &mut checks,
             plan.checksums.offset,
@@ -153,7 +172,7 @@ impl Store {
         padding.retain(|r| !r.is_empty());
         Ok(Store {
             path: path.to_path_buf(),
-            file,
+            source,
             header,
             pointlets,
             checksums,
@@ -183,6 +202,48 @@ impl Store {
                 ),
             )
         })
+    }
+
+    /// The raw bytes of points `range` of pointlet `i` in each stream of `kinds`, read
+    /// together: a remote store fetches them with the requests in flight at once.
+    pub fn read_streams_raw(
+        &self,
+        i: usize,
+        range: Range<u32>,
+        kinds: &[StreamKind],
+    ) -> Result<Vec<Vec<u8>>, StoreError> {
+        let e = *self.entry(i)?;
+        if range.start > range.end || range.end > e.count {
+            return Err(StoreError::request(
+                &self.path,
+                format!(
+                    "points {range:?} are outside pointlet {i} of {} points",
+                    e.count
+                ),
+            ));
+        }
+        let mut offsets = Vec::with_capacity(kinds.len());
+        let mut out = Vec::with_capacity(kinds.len());
+        for kind in kinds {
+            let s = self.header.stream(*kind).ok_or_else(|| {
+                StoreError::request(
+                    &self.path,
+                    format!("the store has no {} stream", kind.name()),
+                )
+            })?;
+            let bpp = s.bytes_per_point as u64;
+            offsets.push(s.offset + (e.first + range.start as u64) * bpp);
+            out.push(vec![0u8; (range.end - range.start) as usize * bpp as usize]);
+        }
+        let mut reads: Vec<(u64, &mut [u8])> = offsets
+            .into_iter()
+            .zip(out.iter_mut())
+            .map(|(o, b)| (o, b.as_mut_slice()))
+            .collect();
+        self.source
+            .read_ranges(&mut reads)
+            .map_err(|e| source_error(&self.path, "reading streams", e))?;
+        Ok(out)
     }
 
     /// Appends the raw bytes of points `range` of pointlet `i`'s `kind` stream to `out`
@@ -217,7 +278,7 @@ impl Store {
         let old = out.len();
         out.resize(old + bytes, 0);
         let r = read_at(
-            &self.file,
+            &*self.source,
             &self.path,
             &mut out[old..],
             offset,
@@ -297,7 +358,7 @@ impl Store {
             let bpp = info.bytes_per_point as usize;
             raw.resize(n * bpp, 0);
             read_at(
-                &self.file,
+                &*self.source,
                 &self.path,
                 &mut raw,
                 info.offset + first.first * bpp as u64,
@@ -372,7 +433,13 @@ impl Store {
         results.into_iter().collect::<Result<(), StoreError>>()?;
         for r in &self.padding {
             let mut buf = vec![0u8; (r.end - r.start) as usize];
-            read_at(&self.file, &self.path, &mut buf, r.start, "reading padding")?;
+            read_at(
+                &*self.source,
+                &self.path,
+                &mut buf,
+                r.start,
+                "reading padding",
+            )?;
             if buf.iter().any(|b| *b != 0) {
                 return Err(StoreError::damaged(
                     &self.path,
@@ -396,7 +463,7 @@ impl Store {
         let points = (last.first + last.count as u64 - first.first) as usize;
         let mut buf = vec![0u8; points * bpp];
         read_at(
-            &self.file,
+            &*self.source,
             &self.path,
             &mut buf,
             info.offset + first.first * bpp as u64,
@@ -432,19 +499,36 @@ impl Store {
 }
 
 fn read_at(
-    file: &File,
+    source: &dyn ByteSource,
     path: &Path,
     buf: &mut [u8],
     offset: u64,
     what: &str,
 ) -> Result<(), StoreError> {
-    pio::read_exact_at(file, buf, offset).map_err(|e| {
-        if e.kind() == std::io::ErrorKind::UnexpectedEof {
+    source
+        .read_exact_at(buf, offset)
+        .map_err(|e| source_error(path, what, e))
+}
+
+fn source_error(path: &Path, what: &str, cause: SourceError) -> StoreError {
+    match cause {
+        SourceError::Truncated => {
             StoreError::damaged(path, format!("{what}: the file ends early (truncated?)"))
-        } else {
-            StoreError::io(path, what, e)
         }
-    })
+        SourceError::Io(e) => StoreError::io(path, what, e),
+        cause => StoreError::Source {
+            path: path.to_path_buf(),
+            what: what.into(),
+            cause,
+        },
+    }
+}
+
+/// Quantized positions from the raw bytes of a position stream (12 bytes per point).
+pub fn decode_positions(raw: &[u8]) -> Vec<[i32; 3]> {
+    raw.chunks_exact(12)
+        .map(|c| decode_position(array(c)))
+        .collect()
 }
 
 fn decode_position(b: [u8; 12]) -> [i32; 3] {

@@ -1,6 +1,8 @@
 //! Synthetic points and helpers shared by the store's integration tests.
 #![allow(dead_code)]
 
+pub mod range_server;
+
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_core::{
     Aabb, LasFields, PointBatch, PointLayout, Quantization, SourceMeta, Vlr, WAVEFORM_BYTES,
