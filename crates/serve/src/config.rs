@@ -24,7 +24,9 @@ pub struct ServeConfig {
     /// File bodies streamed at once; further requests wait for a slot. Each stream holds at most
     /// a few chunks of [`CHUNK_BYTES`] in memory, so this bounds the server's buffers.
     pub max_streams: usize,
-    /// `max-age` of the stores' `Cache-Control` (seconds).
+    /// `max-age` of the stores' `Cache-Control` (seconds). 0, the default, sends `no-cache`:
+    /// caches revalidate by ETag (a 304 has no body), so a store rebuilt in place is seen at
+    /// once and no reader mixes cached ranges of the old file with ranges of the new one.
     pub store_max_age: u32,
 }
 
@@ -36,7 +38,7 @@ impl ServeConfig {
             bind: DEFAULT_BIND,
             viewer_dir: None,
             max_streams: 256,
-            store_max_age: 3600,
+            store_max_age: 0,
         }
     }
 }

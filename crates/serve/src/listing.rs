@@ -24,8 +24,9 @@ struct Entry<'a> {
     name: &'a str,
     /// Path of the store's URL (percent-encoded), relative to the server.
     url: String,
+    /// Bytes in the file.
     #[serde(skip_serializing_if = "Option::is_none")]
-    bytes: Option<u64>,
+    size: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     points: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -63,7 +64,7 @@ impl Listing {
             let mut entry = Entry {
                 name: &store.name,
                 url: store_url(&store.name),
-                bytes: None,
+                size: None,
                 points: None,
                 pointlets: None,
                 bounds: None,
@@ -84,13 +85,13 @@ impl Listing {
                     continue;
                 }
             };
+            entry.size = Some(validators.len);
             if memo.0 != validators {
                 let info = StoreInfo::read(&store.path).map_err(|e| e.to_string());
                 *memo = (validators.clone(), info);
             }
             match &memo.1 {
                 Ok(info) => {
-                    entry.bytes = Some(validators.len);
                     entry.points = Some(info.points);
                     entry.pointlets = Some(info.pointlets);
                     entry.bounds = Some(info.bounds);

@@ -1,14 +1,16 @@
 //! The `Range` header (RFC 9110 §14): one byte range, in any of its three forms.
 //!
 //! `bytes=a-b`, `bytes=a-` and `bytes=-n` give the range clamped to the file (a last position
-//! past the end, or a suffix longer than the file, is cut to the file). Everything else is
-//! refused with a reason, which the server answers with 416 and `Content-Range: bytes */LEN`:
+//! past the end, or a suffix longer than the file, is cut to the file). A header in another
+//! unit (`items=0-1`) is ignored, as RFC 9110 §14.2 requires: the whole file is sent.
+//! Everything else is refused with a reason, which the server answers with 416 and
+//! `Content-Range: bytes */LEN`:
 //! - several ranges (`bytes=0-1,5-6`): this server sends no `multipart/byteranges`; clients
 //!   ask for one range per request;
 //! - a range starting at or past the end, and the empty suffix `bytes=-0`;
-//! - syntax errors: a last position before the first, signs, spaces inside a range, other
-//!   units (`items=0-1`). RFC 9110 lets a server ignore an unknown unit and send the whole
-//!   file instead; for stores of many gigabytes a clear refusal is the safer answer.
+//! - syntax errors: a last position before the first, signs, spaces inside a range, no `=`.
+//!   RFC 9110 lets a server ignore an invalid range or refuse it; a refusal tells a client
+//!   its bug instead of sending it a whole store of many gigabytes.
 
 use std::ops::Range;
 
@@ -36,16 +38,18 @@ impl std::fmt::Display for RangeError {
     }
 }
 
-/// The byte range (end exclusive) that `header` selects from a file of `len` bytes.
-pub fn parse(header: &str, len: u64) -> Result<Range<u64>, RangeError> {
+/// The byte range (end exclusive) that `header` selects from a file of `len` bytes; `None`
+/// when the header is in a unit other than bytes, which is ignored.
+pub fn parse(header: &str, len: u64) -> Result<Option<Range<u64>>, RangeError> {
     let malformed = |why: &str| RangeError::Malformed(why.to_string());
     let (unit, set) = header
         .split_once('=')
         .ok_or_else(|| malformed("expected bytes=FIRST-LAST, bytes=FIRST- or bytes=-SUFFIX"))?;
+    if !is_token(unit) {
+        return Err(malformed("the range unit is not a token"));
+    }
     if !unit.eq_ignore_ascii_case("bytes") {
-        return Err(RangeError::Malformed(format!(
-            "unit {unit:?}: only bytes ranges are served"
-        )));
+        return Ok(None);
     }
     // List elements may be empty and surrounded by spaces or tabs (RFC 9110 §5.6.1).
     let mut specs = set
@@ -66,7 +70,7 @@ pub fn parse(header: &str, len: u64) -> Result<Range<u64>, RangeError> {
                 "the last {suffix} bytes of a {len}-byte file select nothing"
             )));
         }
-        return Ok(len.saturating_sub(suffix)..len);
+        return Ok(Some(len.saturating_sub(suffix)..len));
     }
     let first = number(first).ok_or_else(|| malformed("the first position is not a number"))?;
     let last = match last {
@@ -86,7 +90,14 @@ pub fn parse(header: &str, len: u64) -> Result<Range<u64>, RangeError> {
         )));
     }
     let end = last.map_or(len, |l| l.saturating_add(1).min(len));
-    Ok(first..end)
+    Ok(Some(first..end))
+}
+
+/// An HTTP token (RFC 9110 §5.6.2), as a range unit must be.
+fn is_token(s: &str) -> bool {
+    !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"!#$%&'*+-.^_`|~".contains(&b))
 }
 
 /// A decimal of ASCII digits only (no sign, no spaces); values beyond `u64` saturate, since
@@ -105,7 +116,10 @@ mod tests {
     use super::*;
 
     fn ok(h: &str, len: u64) -> Range<u64> {
-        parse(h, len).unwrap_or_else(|e| panic!("{h}: {e}"))
+        match parse(h, len) {
+            Ok(Some(r)) => r,
+            other => panic!("{h}: {other:?}"),
+        }
     }
 
     #[test]
@@ -133,7 +147,6 @@ mod tests {
         for h in [
             "bytes=5-2",
             "bytes=abc",
-            "items=0-1",
             "bytes=",
             "bytes=-",
             "bytes=+1-2",
@@ -148,6 +161,9 @@ mod tests {
             malformed(h);
         }
         assert_eq!(parse("bytes=0-1,5-6", 10), Err(RangeError::Multiple));
+        // Another unit is ignored (the whole file), not refused.
+        assert_eq!(parse("items=0-1", 10), Ok(None));
+        assert_eq!(parse("Bytes2=5-2", 10), Ok(None));
         for h in [
             "bytes=10-",
             "bytes=10-20",

@@ -4,7 +4,7 @@
 //!
 //! Only GET reads a `Range` (RFC 9110 §14.2): HEAD answers with the headers of the whole
 //! file's GET, without a body. A 416 carries `Content-Range: bytes */LEN` and says why in
-//! its text body.
+//! its text body; a range in another unit than bytes is ignored ([`ranges`]).
 
 use crate::conditional::{self, Outcome};
 use crate::files::{self, OpenFile};
@@ -77,7 +77,8 @@ pub async fn file(
                 Err(_) => Err(ranges::RangeError::Malformed("not ASCII".into())),
             };
             match parsed {
-                Ok(r) => {
+                Ok(None) => 0..len,
+                Ok(Some(r)) => {
                     response = response.status(StatusCode::PARTIAL_CONTENT).header(
                         header::CONTENT_RANGE,
                         format!("bytes {}-{}/{len}", r.start, r.end - 1),

@@ -118,7 +118,10 @@ async fn index(State(state): Shared, method: Method, headers: HeaderMap) -> Resp
     let page = format!(
         "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>pointlet serve</title></head>\n\
          <body><h1>pointlet serve</h1>\n\
-         <p>The web viewer is not built yet. The served stores are listed in \
+         <p>The web viewer is not built yet: build it with <code>bash scripts/build-web.sh</code> \
+         (it writes <code>target/web</code>), or point <code>--web-dir</code> or \
+         <code>POINTLET_WEB_DIR</code> at its files, then restart <code>pointlet serve</code>.</p>\n\
+         <p>The stores are served all the same, listed in \
          <a href=\"/stores.json\">/stores.json</a>:</p>\n<ul>\n{items}</ul>\n</body></html>\n"
     );
     let mut response = Response::new(Body::from(page));

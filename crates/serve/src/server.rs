@@ -62,7 +62,10 @@ impl Server {
             }
             None => None,
         };
-        let cache_control = format!("public, max-age={}", config.store_max_age);
+        let cache_control = match config.store_max_age {
+            0 => "no-cache".to_string(),
+            age => format!("public, max-age={age}"),
+        };
         let store_kind = FileKind {
             content_type: crate::mime::content_type(crate::catalog::STORE_EXTENSION),
             cache_control: HeaderValue::from_str(&cache_control)

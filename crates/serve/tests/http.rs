@@ -37,7 +37,7 @@ fn whole_file_and_its_headers() {
     );
     assert_eq!(r.header("content-type"), Some("application/octet-stream"));
     assert_eq!(r.header("accept-ranges"), Some("bytes"));
-    assert_eq!(r.header("cache-control"), Some("public, max-age=3600"));
+    assert_eq!(r.header("cache-control"), Some("no-cache"));
     assert!(r.header("content-range").is_none());
     let etag = r.header("etag").unwrap();
     assert!(
@@ -102,7 +102,7 @@ fn every_range_form_gives_exactly_its_bytes() {
 }
 
 #[test]
-fn refused_ranges_get_416_with_the_size() {
+fn refused_ranges_get_416_with_the_size_and_other_units_are_ignored() {
     let (_dir, _path, bytes, server) = served();
     let len = bytes.len();
     let past = format!("bytes={len}-");
@@ -110,7 +110,6 @@ fn refused_ranges_get_416_with_the_size() {
     for range in [
         "bytes=5-2",
         "bytes=abc",
-        "items=0-1",
         "bytes=-0",
         "bytes=",
         "bytes=-",
@@ -136,6 +135,10 @@ fn refused_ranges_get_416_with_the_size() {
             "{range}: a short reason"
         );
     }
+    // A range in another unit is ignored, as RFC 9110 §14.2 requires: the whole file.
+    let other_unit = get(server.local_addr(), STORE, &[("Range", "items=0-1")]);
+    assert_eq!(other_unit.status, 200);
+    assert!(other_unit.body == bytes);
     let multi = get(server.local_addr(), STORE, &[("Range", "bytes=0-1,5-6")]);
     assert!(
         multi.text().contains("one range per request"),
@@ -261,7 +264,7 @@ fn conditional_requests_follow_the_etag() {
         serde_json::from_slice(&get(addr, "/stores.json", &[]).body).unwrap();
     assert_eq!(listed[0]["etag"], new_etag.as_str());
     assert_eq!(listed[0]["points"], 30_000);
-    assert_eq!(listed[0]["bytes"], new_bytes.len() as u64);
+    assert_eq!(listed[0]["size"], new_bytes.len() as u64);
     server.shutdown().unwrap();
 }
 
@@ -354,7 +357,7 @@ fn stores_json_lists_exactly_the_given_stores() {
     ]) {
         let bytes = std::fs::read(&file).unwrap();
         assert_eq!(entry["points"], points);
-        assert_eq!(entry["bytes"], bytes.len() as u64);
+        assert_eq!(entry["size"], bytes.len() as u64);
         let store = pointlet_store::Store::open(&file).unwrap();
         let b = store.header().bounds;
         assert_eq!(entry["bounds"]["min"][0].as_f64().unwrap(), b.min[0]);
@@ -382,7 +385,13 @@ fn stores_json_lists_exactly_the_given_stores() {
         index.header("content-type"),
         Some("text/html; charset=utf-8")
     );
-    assert!(index.text().contains("/stores.json") && index.text().contains("not built yet"));
+    let page = index.text();
+    assert!(
+        page.contains("/stores.json") && page.contains("not built yet"),
+        "{page}"
+    );
+    assert!(page.contains("bash scripts/build-web.sh"), "{page}");
+    assert!(page.contains("/stores/b%20b.pointlet"), "{page}");
     assert_eq!(server.stores().len(), 3);
     server.shutdown().unwrap();
 }
