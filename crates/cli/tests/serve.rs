@@ -304,9 +304,9 @@ fn relay(
             }
         }
         let n = requests.fetch_add(1, Ordering::Relaxed) + 1;
-        if n % every == 0 {
+        if n.is_multiple_of(every) {
             let k = faults.fetch_add(1, Ordering::Relaxed);
-            if k % 2 == 0 {
+            if k.is_multiple_of(2) {
                 return Ok(());
             }
             let busy = "HTTP/1.1 503 Service Unavailable\r\nContent-Length: 0\r\n\r\n";
