@@ -24,7 +24,7 @@ impl ReadArgs {
 
 /// Opens one point file and prints the reader's notes.
 pub fn open_point_file(path: &Path, read: &ReadArgs) -> Result<Box<dyn PointReader>> {
-    let reader = pointlet_io::open_with(path, &read.options())?;
+    let reader = pointlet_engine::open_points(path, &read.options())?;
     print_notes(reader.as_ref());
     Ok(reader)
 }

@@ -6,6 +6,7 @@
 
 pub mod progressive;
 mod progressive_scene;
+mod remote_tiles;
 mod residency;
 mod scene;
 mod source;

@@ -276,9 +276,14 @@ impl ProgressiveLoad {
         } else {
             (meta.bounds.min, [meta.bounds.min[2], meta.bounds.max[2]])
         };
-        let file_bytes = std::fs::metadata(path)
-            .map_err(|e| EngineError::Read(format!("{}: {e}", path.display())))?
-            .len();
+        // Remote tilesets have no one size: their MB/s is not reported.
+        let file_bytes = if pointlet_store::is_remote(path) {
+            0
+        } else {
+            std::fs::metadata(path)
+                .map_err(|e| EngineError::Read(format!("{}: {e}", path.display())))?
+                .len()
+        };
         let shared = Arc::new(Shared::default());
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
         let job_extras = extras.clone();

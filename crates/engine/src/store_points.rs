@@ -149,10 +149,21 @@ impl PartedSource for StorePoints {
     }
 }
 
-/// Opens a point file, or a store (`.pointlet`) as one, for progressive loading.
+/// Opens a point file, or a store (`.pointlet`) or a 3D Tiles tileset (`.json`) as one.
 pub fn open_points(path: &Path, read: &ReadOptions) -> Result<Box<dyn PointReader>, IoError> {
     if is_store(path) {
         return Ok(Box::new(StorePoints::open(path)?));
+    }
+    if pointlet_tiles::points::is_tileset_path(path) {
+        if !pointlet_store::is_remote(path) {
+            return pointlet_tiles::points::open(path);
+        }
+        let url = path.to_string_lossy();
+        let source = crate::remote_tiles::RemoteTiles;
+        let tileset = pointlet_tiles::Tileset::load(&source, &url)
+            .map_err(|e| IoError::Named(Box::new(e)))?;
+        let reader = pointlet_tiles::points::TilesetPoints::new(path, tileset, Box::new(source))?;
+        return Ok(Box::new(reader));
     }
     pointlet_io::open_with(path, read)
 }

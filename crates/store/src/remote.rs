@@ -1,8 +1,9 @@
 //! Stores read over the network, through the `object_store` crate: `http(s)://host/path` (any
 //! server that answers byte ranges, `pointlet serve` among them) and `s3://bucket/key`
-//! (credentials, region and endpoint from the usual AWS environment variables). Every read is a
-//! ranged GET that must still find the ETag the store had when it was opened (`If-Match`), so
-//! a store replaced while being read is an error, never a mix of two files. Reads of several
+//! (credentials, region and endpoint from the usual AWS environment variables, then the
+//! profile files). Every read is a ranged GET that must still find the ETag the store had when
+//! it was opened (`If-Match`), so a store replaced while being read is an error, never a mix
+//! of two files. Reads of several
 //! ranges join those less than [`JOIN_GAP`] apart and keep up to [`IN_FLIGHT`] requests going.
 //! Timeouts, resets and 5xx answers are retried with backoff by the crate's client; 403, 404
 //! and a changed ETag are errors at once.
@@ -142,6 +143,20 @@ impl RemoteObject {
     }
 }
 
+/// S3 settings from the environment, then the AWS profile files for what it leaves unset.
+fn s3_builder() -> object_store::aws::AmazonS3Builder {
+    use object_store::aws::{AmazonS3Builder, AmazonS3ConfigKey};
+    let mut builder = AmazonS3Builder::from_env();
+    for (name, value) in crate::aws_profile::profile_settings() {
+        if let Ok(key) = name.parse::<AmazonS3ConfigKey>() {
+            if builder.get_config_value(&key).is_none() {
+                builder = builder.with_config(key, value);
+            }
+        }
+    }
+    builder
+}
+
 /// The object store and the object's path for `url`.
 fn store_for(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath), SourceError> {
     let bad = |why: &str| SourceError::Remote(format!("'{url}' is not a store address: {why}"));
@@ -150,7 +165,7 @@ fn store_for(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath), SourceErro
             .split_once('/')
             .filter(|(b, k)| !b.is_empty() && !k.is_empty())
             .ok_or_else(|| bad("give s3://BUCKET/KEY"))?;
-        let store = object_store::aws::AmazonS3Builder::from_env()
+        let store = s3_builder()
             .with_bucket_name(bucket)
             .with_client_options(client_options())
             .with_retry(retry())
@@ -231,4 +246,24 @@ impl ByteSource for RemoteObject {
         }
         Ok(())
     }
+}
+
+/// The whole object at `url` (`http(s)://` or `s3://`), with the same timeouts and retries as
+/// store reads; objects over `max_bytes` are refused before their body is read.
+pub fn fetch_object(url: &str, max_bytes: u64) -> Result<Vec<u8>, SourceError> {
+    let (store, path) = store_for(url)?;
+    runtime()?.block_on(async {
+        let got = store
+            .get_opts(&path, GetOptions::default())
+            .await
+            .map_err(error)?;
+        if got.meta.size > max_bytes {
+            return Err(SourceError::Remote(format!(
+                "{} bytes, over the limit of {max_bytes}",
+                got.meta.size
+            )));
+        }
+        let bytes = got.bytes().await.map_err(error)?;
+        Ok(bytes.to_vec())
+    })
 }

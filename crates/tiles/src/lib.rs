@@ -28,6 +28,7 @@ pub mod gltf;
 mod meshopt;
 mod metadata;
 pub mod pnts;
+pub mod points;
 pub mod source;
 pub mod tileset;
 pub mod transform;

@@ -53,7 +53,8 @@ impl MemoryData {
     pub fn load(source: Source<'_>, order: VertexOrder) -> Result<Self, ViewerError> {
         let (reader, name): (Box<dyn PointReader>, String) = match source {
             Source::File { path, read } => (
-                pointlet_io::open_with(path, read).map_err(|e| ViewerError::Load(e.to_string()))?,
+                pointlet_engine::open_points(path, read)
+                    .map_err(|e| ViewerError::Load(e.to_string()))?,
                 path.display().to_string(),
             ),
             Source::Demo { points, seed } => {

@@ -1,0 +1,265 @@
+//! A tileset read as a point file: the points of its full-detail tiles, tile after tile, so
+//! that everything that draws or converts point files (the progressive renderer, `render`,
+//! `view`, `bench`, `convert`) takes a `tileset.json` too. Full detail follows refinement: a
+//! tile's content counts when the tile is a leaf or refines by `ADD`; a `REPLACE` parent's
+//! content is a preview its children replace. Opening decodes every such tile once for the
+//! exact count and bounds (as PLY and text files get a pre-pass); streaming by screen-space
+//! error is a different path. Content this crate cannot decode (Draco, meshes) is skipped with
+//! one note naming the tile; content that is missing or broken is an error naming the tile.
+
+use crate::content::TilePoints;
+use crate::{LocalSource, Refine, TileSource, TilesError, Tileset};
+use pointlet_core::{Aabb, PointBatch, PointLayout, SourceMeta};
+use pointlet_io::scale::fit_quantization;
+use pointlet_io::{IoError, PointReader};
+use std::path::{Path, PathBuf};
+
+/// Decimals of the grid the points are stored on (millimetres): finer than the float32
+/// positions of tile content carry far from their tile's origin.
+const DECIMALS: i32 = 3;
+
+/// True for files [`open`] reads: `.json` tileset files.
+pub fn is_tileset_path(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+}
+
+/// The tiles whose contents together are the tileset at full detail, root first.
+pub fn full_detail_tiles(tileset: &Tileset) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut stack = vec![0usize];
+    while let Some(t) = stack.pop() {
+        let Some(tile) = tileset.tiles.get(t) else {
+            continue;
+        };
+        if tile.children.is_empty() || tile.refine == Refine::Add {
+            out.push(t);
+        }
+        stack.extend(tile.children.iter().rev());
+    }
+    out
+}
+
+/// The points of a tileset's full-detail tiles.
+pub struct TilesetPoints {
+    path: PathBuf,
+    tileset: Tileset,
+    source: Box<dyn TileSource>,
+    meta: SourceMeta,
+    /// Tiles still to read, in order.
+    tiles: Vec<usize>,
+    next_tile: usize,
+    /// The contents of the tile being read, and the next point of them.
+    pending: Vec<TilePoints>,
+    cursor: (usize, usize),
+    notes: Vec<String>,
+}
+
+/// Opens the tileset file at `path` for reading its points.
+pub fn open(path: &Path) -> Result<Box<dyn PointReader>, IoError> {
+    let (source, uri) = LocalSource::for_file(path);
+    let tileset = Tileset::load(&source, &uri).map_err(|e| named(path, e))?;
+    Ok(Box::new(TilesetPoints::new(
+        path,
+        tileset,
+        Box::new(source),
+    )?))
+}
+
+/// Tileset errors name their file and tile themselves.
+fn named(_path: &Path, e: TilesError) -> IoError {
+    IoError::Named(Box::new(e))
+}
+
+/// Names under which producers store intensity and classification per point.
+fn is_intensity(name: &str) -> bool {
+    matches!(
+        name.trim_start_matches('_').to_ascii_lowercase().as_str(),
+        "intensity"
+    )
+}
+
+fn is_classification(name: &str) -> bool {
+    matches!(
+        name.trim_start_matches('_').to_ascii_lowercase().as_str(),
+        "classification"
+    )
+}
+
+impl TilesetPoints {
+    pub fn new(
+        path: &Path,
+        tileset: Tileset,
+        source: Box<dyn TileSource>,
+    ) -> Result<Self, IoError> {
+        let mut notes = Vec::new();
+        let mut bounds = Aabb::EMPTY;
+        let mut count = 0u64;
+        let mut kept = Vec::new();
+        let mut has_color = false;
+        let mut skipped_attributes: Vec<String> = Vec::new();
+        for t in full_detail_tiles(&tileset) {
+            let contents = match tileset.read_tile(source.as_ref(), t) {
+                Ok(c) => c,
+                Err(e) if matches!(e.root_cause(), TilesError::Unsupported { .. }) => {
+                    notes.push(format!("skipped: {e}"));
+                    continue;
+                }
+                Err(e) => return Err(named(path, e)),
+            };
+            for c in &contents {
+                count += c.len() as u64;
+                for p in &c.positions {
+                    bounds.grow(*p);
+                }
+                has_color |= c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]);
+                for a in &c.attributes {
+                    if a.components != 1 {
+                        continue;
+                    }
+                    let drawn = is_intensity(&a.name) || is_classification(&a.name);
+                    if !drawn && !skipped_attributes.contains(&a.name) {
+                        skipped_attributes.push(a.name.clone());
+                    }
+                }
+                notes.extend(c.notes.iter().map(|n| format!("{}: {n}", c.uri)));
+            }
+            kept.push(t);
+        }
+        if count == 0 {
+            return Err(IoError::no_points(
+                path,
+                "the tileset's full-detail tiles hold no points",
+            ));
+        }
+        if !skipped_attributes.is_empty() {
+            notes.push(format!(
+                "per-point properties not drawn: {}",
+                skipped_attributes.join(", ")
+            ));
+        }
+        let quantization = fit_quantization(&bounds, [DECIMALS; 3]);
+        if quantization.is_none() {
+            return Err(IoError::invalid(
+                path,
+                "the tileset's points span more than 32-bit integers hold at 1 cm",
+            ));
+        }
+        let version = tileset
+            .files
+            .first()
+            .map_or("?".to_string(), |f| f.version.clone());
+        let meta = SourceMeta {
+            format: format!(
+                "3D Tiles {version} tileset ({} tiles at full detail)",
+                kept.len()
+            ),
+            point_count: count,
+            bounds,
+            quantization,
+            layout: PointLayout {
+                rgb: has_color,
+                ..PointLayout::default()
+            },
+            las_point_format: None,
+            vlrs: Vec::new(),
+            las: None,
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            tileset,
+            source,
+            meta,
+            tiles: kept,
+            next_tile: 0,
+            pending: Vec::new(),
+            cursor: (0, 0),
+            notes,
+        })
+    }
+
+    /// Appends points `range` of `content` to `batch`, every column filled.
+    fn append(&self, content: &TilePoints, range: std::ops::Range<usize>, batch: &mut PointBatch) {
+        batch
+            .xyz
+            .extend_from_slice(&content.positions[range.clone()]);
+        if self.meta.layout.rgb {
+            // 8-bit sRGB spread over LAS's 16-bit range (x 257: 255 becomes 65535).
+            batch.rgb.extend(
+                content.colors[range.clone()]
+                    .iter()
+                    .map(|c| [c[0] as u16 * 257, c[1] as u16 * 257, c[2] as u16 * 257]),
+            );
+        }
+        let column = |pick: fn(&str) -> bool| {
+            content
+                .attributes
+                .iter()
+                .find(|a| a.components == 1 && pick(&a.name))
+        };
+        let (intensity, classes) = (column(is_intensity), column(is_classification));
+        let at = |a: Option<&crate::PointAttribute>, i: usize, max: f64| {
+            a.and_then(|a| a.values.get_f64(i))
+                .map_or(0.0, |v| v.clamp(0.0, max))
+        };
+        for i in range {
+            batch.intensity.push(at(intensity, i, 65535.0) as u16);
+            batch.classification.push(at(classes, i, 255.0) as u8);
+            // One return of one, as LAS readers default points without returns.
+            batch.returns.push(0x11);
+            batch.flags.push(0);
+            batch.scan_angle.push(0.0);
+            batch.user_data.push(0);
+            batch.point_source_id.push(0);
+        }
+    }
+}
+
+impl PointReader for TilesetPoints {
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn meta(&self) -> &SourceMeta {
+        &self.meta
+    }
+
+    fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError> {
+        let mut batch = PointBatch {
+            layout: self.meta.layout,
+            ..PointBatch::default()
+        };
+        while batch.xyz.len() < max {
+            let (c, p) = self.cursor;
+            if c >= self.pending.len() {
+                let Some(&t) = self.tiles.get(self.next_tile) else {
+                    break;
+                };
+                self.next_tile += 1;
+                self.pending = self
+                    .tileset
+                    .read_tile(self.source.as_ref(), t)
+                    .map_err(|e| named(&self.path, e))?;
+                self.cursor = (0, 0);
+                continue;
+            }
+            let content = &self.pending[c];
+            let take = (content.len() - p).min(max - batch.xyz.len());
+            self.append(content, p..p + take, &mut batch);
+            self.cursor = if p + take == content.len() {
+                (c + 1, 0)
+            } else {
+                (c, p + take)
+            };
+        }
+        if batch.xyz.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(batch))
+    }
+}
