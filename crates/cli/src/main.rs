@@ -18,6 +18,7 @@ mod progress;
 mod progressive_cmd;
 mod render_cmd;
 mod scene;
+mod serve_cmd;
 mod signals;
 mod view_args;
 mod view_cmd;
@@ -60,6 +61,8 @@ enum Command {
     Bench(bench_cmd::Args),
     /// Only decode inputs and report points/s (the baseline for `convert`).
     BenchRead(bench_read_cmd::Args),
+    /// Serve stores over HTTP (byte ranges, ETags, CORS) for the web viewer and remote readers.
+    Serve(serve_cmd::Args),
 }
 
 /// Output piped into `head` and closed early ends the program quietly, as Unix tools do,
@@ -113,6 +116,7 @@ fn main() -> ExitCode {
         Command::BenchAlloc(a) => bench_alloc_cmd::run(a),
         Command::Bench(a) => bench_cmd::run(a),
         Command::BenchRead(a) => bench_read_cmd::run(a),
+        Command::Serve(a) => serve_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
