@@ -60,9 +60,10 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("note: {note}");
     }
     eprintln!(
-        "exported {} points into {} tiles ({} leaves, depth {}, {} refinement) in {:.2} s ({}): {}",
+        "exported {} points into {} tiles ({} points in all, {} leaves, depth {}, {} refinement) in {:.2} s ({}): {}",
         store.header().points,
         summary.tiles,
+        summary.content_points,
         summary.leaves,
         summary.depth,
         args.refine.to_uppercase(),

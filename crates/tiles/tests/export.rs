@@ -403,16 +403,24 @@ fn wide_colours_and_waveforms_round_trip_with_replace() {
 }
 
 #[test]
-fn output_is_the_same_for_any_thread_count() {
+fn output_is_the_same_for_any_thread_count_and_ram_budget() {
     let dir = tempfile::tempdir().unwrap();
     let store = build_store(&testdata("autzen_trim.laz"), &dir.path().join("s.pointlet"));
-    let files = |threads: usize| {
-        let out = dir.path().join(format!("t{threads}"));
+    // Threads and RAM budget (1 byte: one tile per batch) change nothing in the output.
+    let files = |threads: usize, ram_budget: u64| {
+        let out = dir.path().join(format!("t{threads}-{ram_budget}"));
+        let config = ExportConfig {
+            refine: Refine::Add,
+            points_per_tile: 3_000,
+            ram_budget,
+            force: false,
+        };
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| export_to(&store, &out, Refine::Add, 3_000));
+            .install(|| export(&store, &out, &config, &|_| {}))
+            .unwrap();
         let mut all = Vec::new();
         for entry in walk(&out) {
             let rel = entry.strip_prefix(&out).unwrap().to_path_buf();
@@ -421,13 +429,19 @@ fn output_is_the_same_for_any_thread_count() {
         all.sort();
         all
     };
-    let one = files(1);
-    let three = files(3);
-    assert_eq!(one.len(), three.len());
-    for ((a, x), (b, y)) in one.iter().zip(&three) {
-        assert_eq!(a, b);
-        // The tileset names the store by path, which is the same here.
-        assert!(x == y, "{} differs between 1 and 3 threads", a.display());
+    let one = files(1, 1 << 30);
+    for other in [files(3, 1 << 30), files(2, 1)] {
+        assert_eq!(one.len(), other.len());
+        assert!(one.len() > 10, "only {} files", one.len());
+        for ((a, x), (b, y)) in one.iter().zip(&other) {
+            assert_eq!(a, b);
+            // The tileset names the store by path, which is the same here.
+            assert!(
+                x == y,
+                "{} differs with other threads or budget",
+                a.display()
+            );
+        }
     }
 }
 
