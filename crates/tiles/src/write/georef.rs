@@ -89,8 +89,8 @@ impl Projection {
 fn vertical_unit(v: &CrsId) -> Option<f64> {
     const US_FOOT: f64 = 1200.0 / 3937.0;
     match v {
-        // NAVD88 height (ftUS), NGVD29 (ftUS), NAVD88 depth (ftUS).
-        CrsId::Epsg(6360 | 5702 | 6358) => Some(US_FOOT),
+        // NAVD88 height (ftUS), NGVD29 height (ftUS).
+        CrsId::Epsg(6360 | 5702) => Some(US_FOOT),
         // NAVD88 height (ft), international foot.
         CrsId::Epsg(8228) => Some(0.3048),
         // NAVD88, EGM96/EGM2008, DHHN, NN54 and others in metres.
