@@ -149,45 +149,57 @@ fn silhouette(path: &Path) -> Silhouette {
     }
 }
 
-#[test]
-fn the_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
-    let started = std::time::Instant::now();
-    let status = Command::new("bash")
-        .arg(repo().join("scripts/ensure-cesium.sh"))
-        .status()
-        .expect("running scripts/ensure-cesium.sh");
-    assert!(status.success(), "scripts/ensure-cesium.sh failed");
-    let dir = tempfile::tempdir().unwrap();
-    let store = autzen_store(dir.path());
-    let out = dir.path().join("tiles");
-    ok(&[
-        "export-3dtiles",
-        s(&store),
-        "-o",
-        s(&out),
-        "--points-per-tile",
-        "20K",
-    ]);
+/// The tileset's root frame: store coordinates → tileset world (ECEF, or the store's own).
+struct Frame {
+    matrix: Vec<f64>,
+    origin: [f64; 3],
+    metres_per_unit: [f64; 3],
+}
 
-    // A local tileset: its root transform is a translation to the data, so Cesium's world
-    // coordinates are the store's and one camera serves both renderers.
-    let tileset: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("tileset.json")).unwrap()).unwrap();
-    let extras = &tileset["asset"]["extras"]["pointlet"];
-    assert_eq!(extras["georeferenced"], false);
-    let origin: Vec<f64> = (0..3)
-        .map(|i| extras["origin"][i].as_f64().unwrap())
-        .collect();
+impl Frame {
+    fn of(tiles: &Path) -> Frame {
+        let tileset: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(tiles.join("tileset.json")).unwrap()).unwrap();
+        let extras = &tileset["asset"]["extras"]["pointlet"];
+        let v3 =
+            |v: &serde_json::Value| -> [f64; 3] { std::array::from_fn(|i| v[i].as_f64().unwrap()) };
+        Frame {
+            matrix: (0..16)
+                .map(|i| tileset["root"]["transform"][i].as_f64().unwrap())
+                .collect(),
+            origin: v3(&extras["origin"]),
+            metres_per_unit: v3(&extras["metresPerUnit"]),
+        }
+    }
+
+    fn world(&self, store: [f64; 3]) -> [f64; 3] {
+        let local: [f64; 3] =
+            std::array::from_fn(|a| (store[a] - self.origin[a]) * self.metres_per_unit[a]);
+        std::array::from_fn(|r| {
+            (0..3)
+                .map(|c| self.matrix[c * 4 + r] * local[c])
+                .sum::<f64>()
+                + self.matrix[12 + r]
+        })
+    }
+
+    /// The world direction of the store's z axis.
+    fn up(&self) -> [f64; 3] {
+        [self.matrix[8], self.matrix[9], self.matrix[10]]
+    }
+}
+
+/// Renders `store` with `pointlet render` and its tileset `tiles` in CesiumJS from the same
+/// camera (given in store coordinates) and compares where the points are.
+fn compare_with_cesium(store: &Path, tiles: &Path, eye: [f64; 3], target: [f64; 3], dir: &Path) {
+    let started = std::time::Instant::now();
+    let frame = Frame::of(tiles);
     let size = 400;
-    let (eye, target) = (
-        [origin[0] - 400.0, origin[1] - 1300.0, origin[2] + 900.0],
-        [origin[0], origin[1], origin[2]],
-    );
     let v = |p: [f64; 3]| format!("{},{},{}", p[0], p[1], p[2]);
-    let ours = dir.path().join("pointlet.png");
+    let ours = dir.join("pointlet.png");
     ok(&[
         "render",
-        s(&store),
+        s(store),
         "-o",
         s(&ours),
         "--width",
@@ -205,17 +217,17 @@ fn the_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
         "--point-size",
         "1",
     ]);
-    let cesium = dir.path().join("cesium.png");
+    let cesium = dir.join("cesium.png");
     let tools = repo().join("target/node-tools/cesium");
     let run = Command::new("node")
         .arg(repo().join("crates/cli/tests/cesium/load_tileset.cjs"))
         .args([
             s(&tools),
-            s(&out),
+            s(tiles),
             s(&cesium),
-            &v(eye),
-            &v(target),
-            "0,0,1",
+            &v(frame.world(eye)),
+            &v(frame.world(target)),
+            &v(frame.up()),
             "50",
             &size.to_string(),
         ])
@@ -227,15 +239,16 @@ fn the_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
         String::from_utf8_lossy(&run.stdout),
         String::from_utf8_lossy(&run.stderr)
     );
+    if let Some(keep) = std::env::var_os("POINTLET_KEEP_CESIUM_PNG").map(PathBuf::from) {
+        let name = tiles.file_name().unwrap().to_string_lossy().into_owned();
+        std::fs::copy(&ours, keep.join(format!("{name}-pointlet.png"))).unwrap();
+        std::fs::copy(&cesium, keep.join(format!("{name}-cesium.png"))).unwrap();
+    }
     let a = silhouette(&ours);
     let b = silhouette(&cesium);
-    let keep = std::env::var_os("POINTLET_KEEP_CESIUM_PNG").map(PathBuf::from);
-    if let Some(k) = keep {
-        std::fs::copy(&ours, k.join("pointlet.png")).unwrap();
-        std::fs::copy(&cesium, k.join("cesium.png")).unwrap();
-    }
     eprintln!(
-        "cesium: {} | ours coverage {:.3} centroid {:?} bbox {:?} | cesium coverage {:.3} centroid {:?} bbox {:?} | {:.1} s",
+        "{}: cesium {} | ours coverage {:.3} centroid {:?} bbox {:?} | cesium coverage {:.3} centroid {:?} bbox {:?} | {:.1} s",
+        tiles.display(),
         String::from_utf8_lossy(&run.stdout).trim(),
         a.coverage, a.centroid, a.bbox, b.coverage, b.centroid, b.bbox,
         started.elapsed().as_secs_f64()
@@ -263,5 +276,76 @@ fn the_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
         "coverage {:.3} (Cesium) vs {:.3} (pointlet)",
         b.coverage,
         a.coverage
+    );
+}
+
+fn ensure_cesium() {
+    let status = Command::new("bash")
+        .arg(repo().join("scripts/ensure-cesium.sh"))
+        .status()
+        .expect("running scripts/ensure-cesium.sh");
+    assert!(status.success(), "scripts/ensure-cesium.sh failed");
+}
+
+#[test]
+fn a_local_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
+    ensure_cesium();
+    let dir = tempfile::tempdir().unwrap();
+    let store = autzen_store(dir.path());
+    let out = dir.path().join("autzen-tiles");
+    ok(&[
+        "export-3dtiles",
+        s(&store),
+        "-o",
+        s(&out),
+        "--points-per-tile",
+        "20K",
+    ]);
+    // A local tileset: its root transform is a translation, world coordinates are the store's.
+    let frame = Frame::of(&out);
+    assert_eq!(frame.metres_per_unit, [1.0; 3]);
+    let o = frame.origin;
+    compare_with_cesium(
+        &store,
+        &out,
+        [o[0] - 400.0, o[1] - 1300.0, o[2] + 900.0],
+        o,
+        dir.path(),
+    );
+}
+
+#[test]
+fn an_ecef_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
+    ensure_cesium();
+    let dir = tempfile::tempdir().unwrap();
+    // Generated scenes are in UTM zone 11N (EPSG:32611): the tileset is placed in ECEF.
+    let store = dir.path().join("scene.pointlet");
+    ok(&["generate", "--points", "300K", "-o", s(&store)]);
+    let out = dir.path().join("scene-tiles");
+    let err = ok_stderr(&[
+        "export-3dtiles",
+        s(&store),
+        "-o",
+        s(&out),
+        "--points-per-tile",
+        "20K",
+    ]);
+    assert!(err.contains("placed in ECEF from EPSG:32611"), "{err}");
+    let frame = Frame::of(&out);
+    let radius = (0..3)
+        .map(|i| frame.matrix[12 + i].powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        (6.35e6..6.40e6).contains(&radius),
+        "root frame {radius} m from the Earth's centre"
+    );
+    let o = frame.origin;
+    compare_with_cesium(
+        &store,
+        &out,
+        [o[0] - 60.0, o[1] - 200.0, o[2] + 180.0],
+        o,
+        dir.path(),
     );
 }
