@@ -6,6 +6,9 @@ cd "$(dirname "$0")/.."
 bash scripts/ensure-vulkan.sh
 bash scripts/ensure-xvfb.sh
 bash scripts/ensure-moto.sh
+# Chromium and the pinned CesiumJS + playwright-core of the 3D Tiles load test (about 1.5 min the
+# first time, nothing after).
+bash scripts/ensure-cesium.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
 cargo test --workspace --locked

@@ -7,6 +7,7 @@ mod bench_progressive;
 mod bench_raster_cmd;
 mod bench_read_cmd;
 mod convert_cmd;
+mod export_3dtiles_cmd;
 mod export_cmd;
 mod flags;
 mod generate_cmd;
@@ -47,6 +48,9 @@ enum Command {
     Info(info_cmd::Args),
     /// Export a store (or part of it) back to LAS/LAZ 1.4.
     Export(export_cmd::Args),
+    /// Export a store as a 3D Tiles 1.1 tileset (GLB points, metadata, ECEF when the CRS is known).
+    #[command(name = "export-3dtiles")]
+    Export3dTiles(export_3dtiles_cmd::Args),
     /// Pointlet quality of Morton, Hilbert and k-d tree partitions (the paper's Table I).
     Metrics(metrics_cmd::Args),
     /// Render one frame headless into a PNG (no INPUT: the built-in demo scene).
@@ -109,6 +113,7 @@ fn main() -> ExitCode {
         Command::Generate(a) => generate_cmd::run(a),
         Command::Info(a) => info_cmd::run(a),
         Command::Export(a) => export_cmd::run(a),
+        Command::Export3dTiles(a) => export_3dtiles_cmd::run(a),
         Command::Metrics(a) => metrics_cmd::run(a),
         Command::Render(a) => render_cmd::run(a),
         Command::View(a) => view_cmd::run(a),

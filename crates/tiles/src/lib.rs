@@ -33,6 +33,7 @@ pub mod source;
 pub mod tileset;
 pub mod transform;
 pub mod volume;
+pub mod write;
 
 pub use content::{AttributeValues, ContentContext, PointAttribute, TilePoints, UpAxis};
 pub use error::TilesError;
