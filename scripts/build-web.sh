@@ -18,7 +18,10 @@ if [ -z "$version" ]; then
 fi
 bindgen=$root/target/tools/bin/wasm-bindgen
 if ! [ -x "$bindgen" ] || [ "$("$bindgen" --version | awk '{print $2}')" != "$version" ]; then
-    cargo install --locked --version "$version" --root "$root/target/tools" wasm-bindgen-cli
+    # --locked first (the CLI's own lock file); an index that lacks one of its pinned crates
+    # (seen with webpki-roots) gets the newest compatible ones instead.
+    cargo install --locked --version "$version" --root "$root/target/tools" wasm-bindgen-cli ||
+        cargo install --version "$version" --root "$root/target/tools" wasm-bindgen-cli
 fi
 
 cargo build -p pointlet-web --release --target wasm32-unknown-unknown --locked

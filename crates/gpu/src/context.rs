@@ -38,6 +38,10 @@ pub struct GpuContext {
     /// Errors raised outside an error scope, kept for the next [`GpuContext::checked`] call
     /// instead of wgpu's default handler, which panics.
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// Kept alive with the device: a browser destroys the device once the instance and
+    /// adapter it came from are collected (buffer mappings then fail).
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
 }
 
 fn wanted_features() -> wgpu::Features {
@@ -227,12 +231,23 @@ impl GpuContext {
             info,
             caps,
             uncaptured,
+            instance: instance.clone(),
+            adapter: adapter.clone(),
         };
         Ok((ctx, adapter))
     }
 
     pub fn describe(&self) -> String {
         describe(&self.info)
+    }
+
+    /// The instance the device came from (a browser canvas's surface must come from it too).
+    pub fn wgpu_instance(&self) -> &wgpu::Instance {
+        &self.instance
+    }
+
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
     }
 
     /// Blocks until the GPU finished everything submitted so far.

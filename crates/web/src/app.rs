@@ -74,8 +74,8 @@ struct App {
     ctx: GpuContext,
     renderer: Renderer,
     target: RenderTarget,
-    surface: wgpu::Surface<'static>,
     canvas: web_sys::HtmlCanvasElement,
+    screen: Screen,
     source: Rc<Source>,
     paged: PagedCloud,
     residency: Residency,
@@ -248,23 +248,6 @@ fn canvas_size(canvas: &web_sys::HtmlCanvasElement) -> (u32, u32) {
     (canvas.width().max(1), canvas.height().max(1))
 }
 
-fn configure(ctx: &GpuContext, surface: &wgpu::Surface<'static>, (w, h): (u32, u32)) {
-    surface.configure(
-        &ctx.device,
-        &wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_DST,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            width: w,
-            height: h,
-            present_mode: wgpu::PresentMode::Fifo,
-            desired_maximum_frame_latency: 2,
-            alpha_mode: wgpu::CompositeAlphaMode::Opaque,
-            view_formats: vec![],
-            color_space: wgpu::SurfaceColorSpace::Auto,
-        },
-    );
-}
-
 fn splats_for(size: SizeParam) -> SplatSettings {
     SplatSettings {
         size: match size {
@@ -326,12 +309,6 @@ impl App {
             .map_err(|e| e.to_string())?;
         let size = canvas_size(&canvas);
         let target = RenderTarget::new(&ctx, size.0, size.1).map_err(|e| e.to_string())?;
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::BROWSER_WEBGPU;
-        let surface = wgpu::Instance::new(desc)
-            .create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone()))
-            .map_err(|e| format!("drawing into the page: {e}"))?;
-        configure(&ctx, &surface, size);
 
         let descs: Vec<PointletDesc> = store
             .pointlets()
@@ -377,7 +354,7 @@ impl App {
             ctx,
             renderer,
             target,
-            surface,
+            screen: Screen::new(&canvas)?,
             canvas,
             paged,
             residency: Residency::new(counts, slots, PAGE_SIZE),
@@ -527,7 +504,6 @@ impl App {
         if size != (self.target.width, self.target.height) {
             self.target =
                 RenderTarget::new(&self.ctx, size.0, size.1).map_err(|e| e.to_string())?;
-            configure(&self.ctx, &self.surface, size);
         }
         Ok(())
     }
@@ -579,6 +555,7 @@ impl App {
                 self.converged = true;
             }
         }
+        self.screen.show();
         self.receive();
         self.request();
         if self.converged && still {
@@ -599,30 +576,14 @@ impl App {
                 None,
             )
             .map_err(|e| e.to_string())?;
-        self.present()?;
+        self.present();
         self.frames_drawn += 1;
         Ok(())
     }
 
-    fn present(&mut self) -> Result<(), String> {
-        let frame = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(f)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
-            _ => return Ok(()),
-        };
-        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        enc.copy_texture_to_texture(
-            self.target.output().as_image_copy(),
-            frame.texture.as_image_copy(),
-            wgpu::Extent3d {
-                width: self.target.width.min(frame.texture.width()),
-                height: self.target.height.min(frame.texture.height()),
-                depth_or_array_layers: 1,
-            },
-        );
-        self.ctx.queue.submit([enc.finish()]);
-        self.ctx.queue.present(frame);
-        Ok(())
+    /// Starts copying the frame to the page (when the last copy is shown).
+    fn present(&mut self) {
+        self.screen.start(&self.ctx, &self.target);
     }
 
     /// Colours by `mode` from now on: every window is fetched again with the new colours.
@@ -665,6 +626,107 @@ impl App {
     }
 }
 
+/// Shows frames in the canvas through its 2D context: each frame is copied to a mappable
+/// buffer and drawn with `putImageData` once mapped. Slower than a WebGPU canvas swap chain,
+/// but that one loses the device in headless Chromium on SwiftShader (no shared-image backing
+/// for it), where the tests run.
+struct Screen {
+    context: web_sys::CanvasRenderingContext2d,
+    /// The copy in flight: buffer, size, padded row bytes, and whether it is mapped.
+    pending: Option<(wgpu::Buffer, (u32, u32), u32, Rc<RefCell<Option<bool>>>)>,
+}
+
+impl Screen {
+    fn new(canvas: &web_sys::HtmlCanvasElement) -> Result<Self, String> {
+        use wasm_bindgen::JsCast;
+        let context = canvas
+            .get_context("2d")
+            .ok()
+            .flatten()
+            .and_then(|c| c.dyn_into::<web_sys::CanvasRenderingContext2d>().ok())
+            .ok_or("the canvas has no 2D context")?;
+        Ok(Self {
+            context,
+            pending: None,
+        })
+    }
+
+    fn start(&mut self, ctx: &GpuContext, target: &RenderTarget) {
+        if self.pending.is_some() {
+            return;
+        }
+        let (w, h) = (target.width, target.height);
+        let row = (w * 4).div_ceil(256) * 256;
+        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("canvas copy"),
+            size: row as u64 * h as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        copy_out(&mut enc, target, &buffer, row);
+        ctx.queue.submit([enc.finish()]);
+        let done = Rc::new(RefCell::new(None));
+        let flag = Rc::clone(&done);
+        buffer
+            .slice(..)
+            .map_async(wgpu::MapMode::Read, move |r| *flag.borrow_mut() = Some(r.is_ok()));
+        self.pending = Some((buffer, (w, h), row, done));
+    }
+
+    /// Draws the copy in flight if it is mapped.
+    fn show(&mut self) {
+        let ready = self
+            .pending
+            .as_ref()
+            .and_then(|p| *p.3.borrow());
+        let Some(ok) = ready else {
+            return;
+        };
+        let Some((buffer, (w, h), row, _)) = self.pending.take() else {
+            return;
+        };
+        if !ok {
+            return;
+        }
+        let mut rgba = Vec::with_capacity((w * h * 4) as usize);
+        if let Ok(view) = buffer.slice(..).get_mapped_range() {
+            for r in 0..h as usize {
+                let start = r * row as usize;
+                rgba.extend_from_slice(&view[start..start + (w * 4) as usize]);
+            }
+        }
+        buffer.unmap();
+        if let Ok(image) = web_sys::ImageData::new_with_u8_clamped_array_and_sh(
+            wasm_bindgen::Clamped(&rgba),
+            w,
+            h,
+        ) {
+            let _ = self.context.put_image_data(&image, 0.0, 0.0);
+        }
+    }
+}
+
+/// Copies the target's image into `buffer` (rows of `row` bytes).
+fn copy_out(enc: &mut wgpu::CommandEncoder, target: &RenderTarget, buffer: &wgpu::Buffer, row: u32) {
+    enc.copy_texture_to_buffer(
+        target.output().as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(target.height),
+            },
+        },
+        wgpu::Extent3d {
+            width: target.width,
+            height: target.height,
+            depth_or_array_layers: 1,
+        },
+    );
+}
+
 /// The handle the page holds.
 #[wasm_bindgen]
 pub struct Viewer {
@@ -694,10 +756,12 @@ impl Viewer {
         let requested: u64 = a.requested.iter().map(|v| *v as u64).sum();
         let drawn: u64 = a.drawn.iter().map(|v| *v as u64).sum();
         format!(
-            "{} points · {} drawn of {} requested · {} on GPU · {} fetches · {:.1} MB read · {} on {}",
+            "{} points · {} drawn of {} requested (frame {} of {}) · {} on GPU · {} fetches · {:.1} MB read · {} on {}",
             a.total_points(),
             drawn,
             requested,
+            a.feedback_frame,
+            a.paged.frames(),
             a.residency.resident_points(),
             a.residency.in_flight(),
             *a.bytes_fetched.borrow() as f64 / 1e6,
@@ -860,22 +924,7 @@ impl Viewer {
             mapped_at_creation: false,
         });
         let mut enc = a.ctx.device.create_command_encoder(&Default::default());
-        enc.copy_texture_to_buffer(
-            a.target.output().as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
+        copy_out(&mut enc, &a.target, &buffer, row);
         a.ctx.queue.submit([enc.finish()]);
         js_sys::Promise::new(&mut |resolve, reject| {
             let mapped = buffer.clone();
