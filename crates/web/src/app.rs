@@ -23,6 +23,7 @@ use pointlet_store::{PointletEntry, Store, StoreHeader, StreamKind};
 use std::cell::RefCell;
 use std::path::Path;
 use std::rc::Rc;
+use std::sync::atomic::Ordering;
 use wasm_bindgen::prelude::*;
 
 /// Points per GPU page: `pointlet render`'s default `--pool-page-size`.
@@ -31,8 +32,11 @@ const PAGE_SIZE: u32 = 256;
 /// browser tab gets less).
 const VRAM_BUDGET: u64 = 768 << 20;
 /// Pointlets fetching at once, and per task (one task's ranges are joined into few requests).
-const MAX_LOADS: usize = 96;
-const LOADS_PER_TASK: usize = 16;
+const MAX_LOADS: usize = 512;
+const LOADS_PER_TASK: usize = 64;
+/// Frames submitted but not finished at most: a browser queues GPU work without pushing back,
+/// and a slow adapter would fall ever further behind (feedback arriving ever later).
+const MAX_FRAMES_IN_FLIGHT: u32 = 2;
 /// Points in flight at most: bounds memory held by responses not yet uploaded.
 const MAX_POINTS_IN_FLIGHT: u64 = 4 << 20;
 /// First bytes fetched: the preamble and, for most stores, the whole metadata.
@@ -101,6 +105,7 @@ struct App {
     error: Option<String>,
     bytes_fetched: Rc<RefCell<u64>>,
     frames_drawn: u64,
+    frames_in_flight: std::sync::Arc<std::sync::atomic::AtomicU32>,
 }
 
 fn js_err(e: impl std::fmt::Display) -> JsValue {
@@ -147,12 +152,17 @@ async fn fetch_store(url: &str) -> Result<(Store, SparseBytes), String> {
         ));
     }
     let sparse = SparseBytes::new(total);
-    let have = first.body_start + first.body.len() as u64;
-    sparse.insert(first.body_start, first.body);
-    if have < data_offset {
+    let mut metadata = first.body;
+    metadata.truncate(data_offset.saturating_sub(first.body_start) as usize);
+    let have = first.body_start + metadata.len() as u64;
+    if first.body_start == 0 && have < data_offset {
+        // One piece: the reader reads the table and checksums each in one read.
         let rest = fetch::fetch_range(url, have..data_offset).await?;
-        sparse.insert(rest.body_start, rest.body);
+        let tail = ranges::slice_of(&rest.body, rest.body_start, &(have..data_offset))
+            .ok_or_else(|| format!("{url}: the metadata response was short"))?;
+        metadata.extend_from_slice(tail);
     }
+    sparse.insert(first.body_start, metadata);
     let store =
         Store::from_source(Path::new(url), Box::new(sparse.clone())).map_err(|e| e.to_string())?;
     Ok((store, sparse))
@@ -379,6 +389,7 @@ impl App {
             error: None,
             bytes_fetched: Rc::new(RefCell::new(0)),
             frames_drawn: 0,
+            frames_in_flight: Default::default(),
             source,
         })
     }
@@ -486,7 +497,11 @@ impl App {
             self.publish(i);
         }
         let kinds = colors::fetch_streams(&self.source.header, self.scale.mode);
-        for chunk in plan.loads.chunks(LOADS_PER_TASK) {
+        // Neighbouring pointlets are neighbours in every stream: a task's ranges join into
+        // a few large requests.
+        let mut loads = plan.loads;
+        loads.sort_by_key(|l| l.range.pointlet);
+        for chunk in loads.chunks(LOADS_PER_TASK) {
             wasm_bindgen_futures::spawn_local(run_loads(
                 Rc::clone(&self.source),
                 kinds.clone(),
@@ -510,6 +525,10 @@ impl App {
 
     /// One animation frame; idle once the still view converged.
     fn frame(&mut self) -> Result<(), String> {
+        self.screen.show();
+        if self.frames_in_flight.load(Ordering::Relaxed) >= MAX_FRAMES_IN_FLIGHT {
+            return Ok(());
+        }
         self.resize()?;
         let size = (self.target.width, self.target.height);
         let key = (self.camera, self.settings, size);
@@ -555,7 +574,6 @@ impl App {
                 self.converged = true;
             }
         }
-        self.screen.show();
         self.receive();
         self.request();
         if self.converged && still {
@@ -577,6 +595,11 @@ impl App {
             )
             .map_err(|e| e.to_string())?;
         self.present();
+        self.frames_in_flight.fetch_add(1, Ordering::Relaxed);
+        let in_flight = std::sync::Arc::clone(&self.frames_in_flight);
+        self.ctx.queue.on_submitted_work_done(move || {
+            in_flight.fetch_sub(1, Ordering::Relaxed);
+        });
         self.frames_drawn += 1;
         Ok(())
     }
@@ -668,18 +691,15 @@ impl Screen {
         ctx.queue.submit([enc.finish()]);
         let done = Rc::new(RefCell::new(None));
         let flag = Rc::clone(&done);
-        buffer
-            .slice(..)
-            .map_async(wgpu::MapMode::Read, move |r| *flag.borrow_mut() = Some(r.is_ok()));
+        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            *flag.borrow_mut() = Some(r.is_ok())
+        });
         self.pending = Some((buffer, (w, h), row, done));
     }
 
     /// Draws the copy in flight if it is mapped.
     fn show(&mut self) {
-        let ready = self
-            .pending
-            .as_ref()
-            .and_then(|p| *p.3.borrow());
+        let ready = self.pending.as_ref().and_then(|p| *p.3.borrow());
         let Some(ok) = ready else {
             return;
         };
@@ -697,18 +717,21 @@ impl Screen {
             }
         }
         buffer.unmap();
-        if let Ok(image) = web_sys::ImageData::new_with_u8_clamped_array_and_sh(
-            wasm_bindgen::Clamped(&rgba),
-            w,
-            h,
-        ) {
+        if let Ok(image) =
+            web_sys::ImageData::new_with_u8_clamped_array_and_sh(wasm_bindgen::Clamped(&rgba), w, h)
+        {
             let _ = self.context.put_image_data(&image, 0.0, 0.0);
         }
     }
 }
 
 /// Copies the target's image into `buffer` (rows of `row` bytes).
-fn copy_out(enc: &mut wgpu::CommandEncoder, target: &RenderTarget, buffer: &wgpu::Buffer, row: u32) {
+fn copy_out(
+    enc: &mut wgpu::CommandEncoder,
+    target: &RenderTarget,
+    buffer: &wgpu::Buffer,
+    row: u32,
+) {
     enc.copy_texture_to_buffer(
         target.output().as_image_copy(),
         wgpu::TexelCopyBufferInfo {
