@@ -227,19 +227,17 @@ window.pointletPixels = async () => {
   return { width: window.pointletViewer.width(), height: window.pointletViewer.height(), rgba: btoa(s) };
 };
 
-// Benchmark: `frames` frames orbiting (the LoD budget bounds each), mean and p95 ms per frame.
-window.pointletBench = (frames) => new Promise((resolve) => {
+// Benchmark: orbit for `seconds` (each frame drawn under the LoD budget); milliseconds per
+// frame drawn (frames wait for the GPU: at most two in flight).
+window.pointletBench = (seconds) => new Promise((resolve) => {
   const v = window.pointletViewer;
-  const times = [];
-  let last = performance.now();
+  const start = performance.now();
+  const first = v.frames_drawn();
   const step = (now) => {
-    times.push(now - last);
-    last = now;
-    v.orbit(4, 0);
-    if (times.length < frames + 1) { requestAnimationFrame(step); return; }
-    times.shift();
-    times.sort((a, b) => a - b);
-    resolve({ mean: times.reduce((a, b) => a + b, 0) / times.length, p95: times[Math.floor(times.length * 0.95)] });
+    v.orbit(2, 0);
+    if (now - start < seconds * 1000) { requestAnimationFrame(step); return; }
+    const frames = v.frames_drawn() - first;
+    resolve({ frames, ms_per_frame: (now - start) / Math.max(1, frames) });
   };
   requestAnimationFrame(step);
 });
