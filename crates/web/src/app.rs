@@ -655,8 +655,17 @@ impl App {
 /// for it), where the tests run.
 struct Screen {
     context: web_sys::CanvasRenderingContext2d,
-    /// The copy in flight: buffer, size, padded row bytes, and whether it is mapped.
-    pending: Option<(wgpu::Buffer, (u32, u32), u32, Rc<RefCell<Option<bool>>>)>,
+    pending: Option<CanvasCopy>,
+}
+
+/// A frame on its way to the canvas.
+struct CanvasCopy {
+    buffer: wgpu::Buffer,
+    size: (u32, u32),
+    /// Bytes per row in the buffer (padded to 256).
+    row: u32,
+    /// Set by the mapping: whether it succeeded.
+    mapped: Rc<RefCell<Option<bool>>>,
 }
 
 impl Screen {
@@ -694,16 +703,27 @@ impl Screen {
         buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
             *flag.borrow_mut() = Some(r.is_ok())
         });
-        self.pending = Some((buffer, (w, h), row, done));
+        self.pending = Some(CanvasCopy {
+            buffer,
+            size: (w, h),
+            row,
+            mapped: done,
+        });
     }
 
     /// Draws the copy in flight if it is mapped.
     fn show(&mut self) {
-        let ready = self.pending.as_ref().and_then(|p| *p.3.borrow());
+        let ready = self.pending.as_ref().and_then(|p| *p.mapped.borrow());
         let Some(ok) = ready else {
             return;
         };
-        let Some((buffer, (w, h), row, _)) = self.pending.take() else {
+        let Some(CanvasCopy {
+            buffer,
+            size: (w, h),
+            row,
+            ..
+        }) = self.pending.take()
+        else {
             return;
         };
         if !ok {

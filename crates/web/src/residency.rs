@@ -126,9 +126,9 @@ impl Residency {
     ) -> Plan {
         let mut plan = Plan::default();
         let n = self.counts.len().min(requested.len());
-        for i in 0..n {
-            if requested[i] > 0 {
-                self.wanted_at[i] = frame;
+        for (at, r) in self.wanted_at.iter_mut().zip(requested) {
+            if *r > 0 {
+                *at = frame;
             }
         }
         let ps = self.page_size;
