@@ -149,18 +149,6 @@ fn serve(web: PathBuf, stores: PathBuf) -> String {
     format!("http://{addr}")
 }
 
-fn png_rgba(path: &Path) -> Vec<u8> {
-    let decoder = png::Decoder::new(BufReader::new(
-        std::fs::File::open(path).expect("opening the PNG"),
-    ));
-    let mut reader = decoder.read_info().expect("a PNG");
-    let mut buf = vec![0; reader.output_buffer_size().expect("a PNG size")];
-    let info = reader.next_frame(&mut buf).expect("PNG pixels");
-    assert_eq!(info.color_type, png::ColorType::Rgba, "render writes RGBA");
-    buf.truncate(info.buffer_size());
-    buf
-}
-
 #[test]
 fn the_browser_draws_the_shared_view_as_render_does() {
     let root = repo();
@@ -191,7 +179,10 @@ fn the_browser_draws_the_shared_view_as_render_does() {
     let json: serde_json::Value = serde_json::from_str(&info).expect("info --json");
     let b = &json["bounds"];
     let v = |k: &str, i: usize| b[k][i].as_f64().expect("a bound");
-    let (min, max) = ([v("min", 0), v("min", 1), v("min", 2)], [v("max", 0), v("max", 1), v("max", 2)]);
+    let (min, max) = (
+        [v("min", 0), v("min", 1), v("min", 2)],
+        [v("max", 0), v("max", 1), v("max", 2)],
+    );
     let c = [0, 1, 2].map(|i| 0.5 * (min[i] + max[i]));
     let span = (max[0] - min[0]).max(max[1] - min[1]);
     let eye = [c[0] - 0.6 * span, c[1] - 0.8 * span, c[2] + 0.5 * span];
@@ -223,10 +214,15 @@ fn the_browser_draws_the_shared_view_as_render_does() {
 
     let base = serve(root.join("target/web"), stores.clone());
     let query = format!("?store=scene&eye={eye}&target={target}&fov={fov}&ui=off");
+    let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
+    let driver_args: [&str; 5] = [&base, &query, &w, &h, s(dir.path())];
     let out = Command::new("node")
         .arg(root.join("crates/cli/tests/web/driver.mjs"))
-        .args([&base, &query, &WIDTH.to_string(), &HEIGHT.to_string(), s(dir.path())])
-        .env("PLAYWRIGHT_MODULES", root.join("target/node-tools/node_modules"))
+        .args(driver_args)
+        .env(
+            "PLAYWRIGHT_MODULES",
+            root.join("target/node-tools/node_modules"),
+        )
         .output()
         .expect("running node (scripts/ensure-browser.sh checks it is installed)");
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -254,7 +250,10 @@ fn the_browser_draws_the_shared_view_as_render_does() {
     let lit = (0..pixels)
         .filter(|i| want[4 * i..4 * i + 3].iter().any(|v| *v > 0))
         .count();
-    assert!(lit > pixels / 20, "render's image is nearly empty ({lit} lit pixels)");
+    assert!(
+        lit > pixels / 20,
+        "render's image is nearly empty ({lit} lit pixels)"
+    );
     assert!(
         differ * 1000 <= pixels,
         "{differ} of {pixels} pixels differ from pointlet render's (at most 0.1 % may)"
@@ -275,7 +274,10 @@ fn the_browser_draws_the_shared_view_as_render_does() {
         found["measurement"].as_f64().is_some_and(|d| d > 0.0),
         "measuring: {found}"
     );
-    assert!(found["screenshot_bytes"].as_u64().unwrap_or(0) > 100, "{found}");
+    assert!(
+        found["screenshot_bytes"].as_u64().unwrap_or(0) > 100,
+        "{found}"
+    );
     let bare = &found["without_webgpu"];
     assert_eq!(bare[0], "no-webgpu", "{found}");
     assert!(
