@@ -38,6 +38,10 @@ pub struct GpuContext {
     /// Errors raised outside an error scope, kept for the next [`GpuContext::checked`] call
     /// instead of wgpu's default handler, which panics.
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// Kept alive with the device: a browser destroys the device once the instance and
+    /// adapter it came from are collected (buffer mappings then fail).
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
 }
 
 fn wanted_features() -> wgpu::Features {
@@ -66,28 +70,65 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 impl GpuContext {
     /// Vulkan/Metal/DX12 unless WGPU_BACKEND says otherwise: probing GL on a headless machine
     /// only prints EGL warnings, and GL lacks the 64-bit atomics anyway.
+    #[cfg(not(target_arch = "wasm32"))]
     fn instance() -> wgpu::Instance {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::PRIMARY;
         wgpu::Instance::new(desc.with_env())
     }
 
+    /// In a browser: its WebGPU implementation, nothing else.
+    #[cfg(target_arch = "wasm32")]
+    fn instance() -> wgpu::Instance {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::BROWSER_WEBGPU;
+        wgpu::Instance::new(desc)
+    }
+
+    /// The adapters to choose from: every one wgpu enumerates; in a browser, which cannot
+    /// enumerate, the one it offers.
+    async fn candidates(instance: &wgpu::Instance) -> Vec<wgpu::Adapter> {
+        if cfg!(target_arch = "wasm32") {
+            let options = wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            };
+            return instance
+                .request_adapter(&options)
+                .await
+                .into_iter()
+                .collect();
+        }
+        instance.enumerate_adapters(wgpu::Backends::all()).await
+    }
+
     /// Every adapter wgpu finds, in enumeration order (the indices `--adapter` accepts).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn adapters() -> Vec<wgpu::AdapterInfo> {
-        pollster::block_on(Self::instance().enumerate_adapters(wgpu::Backends::all()))
+        pollster::block_on(Self::candidates(&Self::instance()))
             .iter()
             .map(|a| a.get_info())
             .collect()
     }
 
     /// Opens the requested adapter with every useful feature it has.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new(request: &AdapterRequest) -> Result<Self, GpuError> {
-        Self::open(&Self::instance(), request, None).map(|(ctx, _)| ctx)
+        pollster::block_on(Self::new_async(request))
+    }
+
+    /// [`new`](Self::new) without blocking: a browser answers adapter and device requests
+    /// through promises only.
+    pub async fn new_async(request: &AdapterRequest) -> Result<Self, GpuError> {
+        Self::open(&Self::instance(), request, None)
+            .await
+            .map(|(ctx, _)| ctx)
     }
 
     /// Like [`new`](Self::new), for drawing into a window: creates the surface of `window`,
     /// considers only adapters that can present to it, and returns what the surface supports
     /// on the chosen adapter (formats, present modes) for configuring it.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn for_surface<'w>(
         request: &AdapterRequest,
         window: impl Into<wgpu::SurfaceTarget<'w>>,
@@ -96,17 +137,17 @@ impl GpuContext {
         let surface = instance
             .create_surface(window)
             .map_err(|e| GpuError::Device(format!("creating the window surface: {e}")))?;
-        let (ctx, adapter) = Self::open(&instance, request, Some(&surface))?;
+        let (ctx, adapter) = pollster::block_on(Self::open(&instance, request, Some(&surface)))?;
         let caps = surface.get_capabilities(&adapter);
         Ok((ctx, surface, caps))
     }
 
-    fn open(
+    async fn open(
         instance: &wgpu::Instance,
         request: &AdapterRequest,
         surface: Option<&wgpu::Surface<'_>>,
     ) -> Result<(Self, wgpu::Adapter), GpuError> {
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let adapters = Self::candidates(instance).await;
         // An adapter that cannot present to the window is useless to it (e.g. a second GPU).
         let presents = |a: &wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));
         let found: Vec<String> = adapters.iter().map(|a| describe(&a.get_info())).collect();
@@ -157,15 +198,17 @@ impl GpuContext {
         let int64 = features.contains(wgpu::Features::SHADER_INT64);
         // Ask for everything the adapter offers: large bindings decide how point data is split.
         let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("pointlet"),
-            required_features: features,
-            required_limits: limits,
-            experimental_features: wgpu::ExperimentalFeatures::disabled(),
-            memory_hints: wgpu::MemoryHints::Performance,
-            trace: wgpu::Trace::Off,
-        }))
-        .map_err(|e| GpuError::Device(format!("{}: {e}", describe(&info))))?;
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("pointlet"),
+                required_features: features,
+                required_limits: limits,
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| GpuError::Device(format!("{}: {e}", describe(&info))))?;
         let caps = Capabilities {
             int64_atomics: int64 && features.contains(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX),
             int64_atomic_add: int64
@@ -188,12 +231,23 @@ impl GpuContext {
             info,
             caps,
             uncaptured,
+            instance: instance.clone(),
+            adapter: adapter.clone(),
         };
         Ok((ctx, adapter))
     }
 
     pub fn describe(&self) -> String {
         describe(&self.info)
+    }
+
+    /// The instance the device came from (a browser canvas's surface must come from it too).
+    pub fn wgpu_instance(&self) -> &wgpu::Instance {
+        &self.instance
+    }
+
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
     }
 
     /// Blocks until the GPU finished everything submitted so far.
@@ -205,6 +259,7 @@ impl GpuContext {
     }
 
     /// Runs `f` and returns the first validation or out-of-memory error it raised.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn checked<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -217,6 +272,17 @@ impl GpuContext {
         if let Some(e) = v {
             return Err(GpuError::Validation(format!("{what}: {e}")));
         }
+        if let Some(e) = self.uncaptured.lock().ok().and_then(|mut s| s.take()) {
+            return Err(GpuError::Validation(format!("{what}: {e}")));
+        }
+        Ok(out)
+    }
+
+    /// In a browser error scopes answer through promises, which cannot be waited for here:
+    /// `f`'s errors surface through the uncaptured-error handler, at this or a later call.
+    #[cfg(target_arch = "wasm32")]
+    pub fn checked<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let out = f();
         if let Some(e) = self.uncaptured.lock().ok().and_then(|mut s| s.take()) {
             return Err(GpuError::Validation(format!("{what}: {e}")));
         }

@@ -362,7 +362,7 @@ impl FrameGraph {
             Stamps<'_>,
         ) -> Result<(), GpuError>,
     ) -> Result<std::time::Duration, GpuError> {
-        let started = std::time::Instant::now();
+        let started = web_time::Instant::now();
         let mut in_passes = std::time::Duration::ZERO;
         let kind = self.shape.kind;
         target.pool.ensure(ctx, &self.graph)?;
@@ -413,7 +413,7 @@ impl FrameGraph {
                 end: base.filter(|_| last).map(|b| b + 1),
             };
             let (src, dst) = self.layers.get(k).copied().unwrap_or((None, None));
-            let pass_started = std::time::Instant::now();
+            let pass_started = web_time::Instant::now();
             match p.pass {
                 FramePass::Resolve => {
                     let mut pass = begin(enc, "resolve", &stamps);

@@ -515,7 +515,7 @@ pub(crate) fn record_frame(
     ) -> Result<(), GpuError>,
 ) -> Result<std::time::Duration, GpuError> {
     screen.prepare(&ctx.queue, target, &settings.screen, camera.fov_y_deg);
-    let looked_up = std::time::Instant::now();
+    let looked_up = web_time::Instant::now();
     if let Entry::Vacant(slot) = graphs.entry(shape) {
         slot.insert(FrameGraph::build(shape).map_err(|e| GpuError::Device(e.to_string()))?);
     }

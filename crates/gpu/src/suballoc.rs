@@ -350,7 +350,7 @@ pub fn benchmark_sizes(count: usize, seed: u64) -> Vec<u64> {
 /// `sizes` allocated one `create_buffer` each, then all dropped; what each took on the CPU.
 pub fn time_direct(ctx: &GpuContext, sizes: &[u64]) -> Result<AllocTimes, GpuError> {
     let usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST;
-    let started = std::time::Instant::now();
+    let started = web_time::Instant::now();
     let buffers = ctx.checked("allocating buffers", || {
         sizes
             .iter()
@@ -365,7 +365,7 @@ pub fn time_direct(ctx: &GpuContext, sizes: &[u64]) -> Result<AllocTimes, GpuErr
             .collect::<Vec<_>>()
     })?;
     let allocated = started.elapsed();
-    let started = std::time::Instant::now();
+    let started = web_time::Instant::now();
     for b in buffers {
         b.destroy();
         drop(b);
@@ -382,14 +382,14 @@ pub fn time_suballocator(
     page_size: u64,
 ) -> Result<AllocTimes, GpuError> {
     let mut sub = Suballocator::new(page_size);
-    let started = std::time::Instant::now();
+    let started = web_time::Instant::now();
     let mut allocations = Vec::with_capacity(sizes.len());
     for s in sizes {
         allocations.push(sub.alloc(ctx, wgpu::BufferUsages::VERTEX, *s)?);
     }
     let allocated = started.elapsed();
     let pages = sub.stats().pages;
-    let started = std::time::Instant::now();
+    let started = web_time::Instant::now();
     for a in allocations {
         sub.free(a);
     }

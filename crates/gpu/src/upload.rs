@@ -404,13 +404,16 @@ impl UploadQueue {
                 .iter()
                 .map(|_| buffer("chunk runs", 16, wgpu::BufferUsages::UNIFORM))
                 .collect();
+            // WebGPU refuses a buffer bound twice when one binding is writable: encodings without
+            // a fine stream get a placeholder the shader never writes.
+            let no_fine = buffer("no fine stream", 16, s);
             let layout = self.scatter.get_bind_group_layout(0);
             let chunk_groups = storage
                 .chunks
                 .iter()
                 .zip(&chunk_uniforms)
                 .map(|(c, u)| {
-                    let fine_dst = c.fine.as_ref().unwrap_or(&c.colors);
+                    let fine_dst = c.fine.as_ref().unwrap_or(&no_fine);
                     let buffers = [
                         u,
                         &runs,

@@ -209,6 +209,14 @@ pub(crate) fn array<const N: usize>(s: &[u8]) -> [u8; N] {
     a
 }
 
+/// From the preamble alone: the file's length and where its streams start. Every byte a
+/// reader checks at open lies before that offset, so a client fetching byte ranges (the
+/// browser) reads `0..data_offset` once and opens the store from those bytes.
+pub fn metadata_extent(preamble: &[u8; PREAMBLE_LEN as usize]) -> Result<(u64, u64), String> {
+    let pre = Preamble::decode(preamble)?;
+    Ok((pre.file_len, pre.data_offset))
+}
+
 /// A region of the file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub(crate) struct Section {

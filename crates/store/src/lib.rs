@@ -16,6 +16,7 @@ pub mod format;
 mod meta;
 mod pio;
 mod reader;
+#[cfg(feature = "remote")]
 mod remote;
 mod runs;
 mod sort;

@@ -57,6 +57,18 @@ pub fn write_all_at(file: &File, mut buf: &[u8], mut offset: u64) -> io::Result<
     Ok(())
 }
 
+/// Targets without positioned file I/O (wasm32 in a browser, which has no files: stores come
+/// over HTTP there).
+#[cfg(not(any(unix, windows)))]
+pub fn read_exact_at(_file: &File, _buf: &mut [u8], _offset: u64) -> io::Result<()> {
+    Err(io::ErrorKind::Unsupported.into())
+}
+
+#[cfg(not(any(unix, windows)))]
+pub fn write_all_at(_file: &File, _buf: &[u8], _offset: u64) -> io::Result<()> {
+    Err(io::ErrorKind::Unsupported.into())
+}
+
 /// Sizes a new file to `len` bytes with its disk space reserved where the file system can
 /// (a full disk fails here, before the work, and the kernel then writes into allocated blocks,
 /// which is faster); elsewhere the file is only extended.

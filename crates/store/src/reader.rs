@@ -36,8 +36,7 @@ impl Store {
     /// `path` may also be an `http://`, `https://` or `s3://` address (see remote.rs).
     pub fn open(path: &Path) -> Result<Store, StoreError> {
         let opened: Result<Box<dyn ByteSource>, SourceError> = if is_remote(path) {
-            crate::remote::RemoteObject::open(&path.to_string_lossy())
-                .map(|r| Box::new(r) as Box<dyn ByteSource>)
+            open_remote(path)
         } else {
             LocalFile::open(path).map(|f| Box::new(f) as Box<dyn ByteSource>)
         };
@@ -522,6 +521,20 @@ fn source_error(path: &Path, what: &str, cause: SourceError) -> StoreError {
             cause,
         },
     }
+}
+
+#[cfg(feature = "remote")]
+fn open_remote(path: &Path) -> Result<Box<dyn ByteSource>, SourceError> {
+    crate::remote::RemoteObject::open(&path.to_string_lossy())
+        .map(|r| Box::new(r) as Box<dyn ByteSource>)
+}
+
+/// Built without the `remote` feature (the browser fetches byte ranges itself).
+#[cfg(not(feature = "remote"))]
+fn open_remote(_path: &Path) -> Result<Box<dyn ByteSource>, SourceError> {
+    Err(SourceError::Remote(
+        "this build reads no http(s):// or s3:// stores (feature `remote` is off)".into(),
+    ))
 }
 
 /// Quantized positions from the raw bytes of a position stream (12 bytes per point).
