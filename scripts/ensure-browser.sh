@@ -14,9 +14,13 @@ if ! command -v chromium >/dev/null 2>&1; then
     $SUDO apt-get update -qq
     $SUDO apt-get install -y -qq chromium >/dev/null
 fi
-if ! command -v node >/dev/null 2>&1; then
-    echo "error: node and npm are needed to drive chromium (apt-get install nodejs npm)" >&2
-    exit 1
+if ! command -v npm >/dev/null 2>&1; then
+    echo "installing node and npm to drive chromium" >&2
+    SUDO=""
+    if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq
+    $SUDO apt-get install -y -qq nodejs npm >/dev/null
 fi
 
 tools=target/node-tools

@@ -18,6 +18,14 @@ if [ ! -x /usr/bin/chromium ]; then
   fi
 fi
 
+if ! command -v npm >/dev/null 2>&1; then
+  echo "installing node and npm for the browser tests" >&2
+  SUDO=""
+  if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq nodejs npm >/dev/null
+fi
+
 installed() {
   node -e "
     const v = (p) => require('./$dir/node_modules/' + p + '/package.json').version;

@@ -8,6 +8,7 @@
 //! - [`Store`] opens a store after validating its structure, and reads whole pointlets
 //!   (checksummed) or any range of a pointlet's shuffled order (one positioned read per stream).
 
+#[cfg(feature = "remote")]
 mod aws_profile;
 mod builder;
 mod emit;
@@ -29,6 +30,7 @@ pub use error::StoreError;
 pub use format::{PointletEntry, StoreHeader, StreamInfo, StreamKind};
 pub use meta::merge_meta;
 pub use reader::{decode_positions, Store};
+#[cfg(feature = "remote")]
 pub use remote::fetch_object;
 pub use source::{is_remote, ByteSource, SourceError};
 
