@@ -19,23 +19,6 @@ pub struct StoreSource {
     scale: RwLock<ColorScale>,
 }
 
-/// The stream a colour mode reads besides positions (none for elevation).
-pub(crate) fn stream_for(mode: ColorMode) -> Option<StreamKind> {
-    match mode {
-        ColorMode::Rgb => Some(StreamKind::Rgb),
-        ColorMode::Intensity => Some(StreamKind::Intensity),
-        ColorMode::Elevation => None,
-        ColorMode::Classification => Some(StreamKind::Classification),
-        ColorMode::ReturnNumber => Some(StreamKind::Returns),
-        ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
-        ColorMode::GpsTime => Some(StreamKind::GpsTime),
-        ColorMode::ScanAngle => Some(StreamKind::ScanAngle),
-        ColorMode::UserData => Some(StreamKind::UserData),
-        ColorMode::Nir => Some(StreamKind::Nir),
-        ColorMode::Extra(_) => Some(StreamKind::ExtraBytes),
-    }
-}
-
 impl StoreSource {
     /// Colours by `mode`, with ranges fitted by [`fit_scale`].
     pub fn new(
@@ -76,7 +59,7 @@ impl StoreSource {
     fn color_streams(&self, scale: &ColorScale) -> Vec<StreamKind> {
         let header = self.store.header();
         let mut kinds = Vec::new();
-        match stream_for(scale.mode) {
+        match StreamKind::for_color(scale.mode) {
             None => kinds.push(StreamKind::Position),
             Some(kind) if header.stream(kind).is_some() => kinds.push(kind),
             // The store lacks the attribute: every point draws grey.

@@ -2,7 +2,6 @@
 //! pointlets in stored order, groups of them as parts that threads read at once. Every point
 //! is drawn, no LoD: the loader's throughput with nothing to decode but fixed-size columns.
 
-use crate::source::stream_for;
 use pointlet_core::color::ColorMode;
 use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
 use pointlet_io::{IoError, PointReader, ReadOptions};
@@ -140,10 +139,13 @@ impl PartedSource for StorePoints {
         _scratch: &mut Vec<u8>,
         mode: ColorMode,
     ) -> Result<(), PartError> {
-        let kinds: Vec<StreamKind> = [Some(StreamKind::Classification), stream_for(mode)]
-            .into_iter()
-            .flatten()
-            .collect();
+        let kinds: Vec<StreamKind> = [
+            Some(StreamKind::Classification),
+            StreamKind::for_color(mode),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
         self.decode(i, out, &kinds)
             .map_err(|e| Box::new(e) as PartError)
     }

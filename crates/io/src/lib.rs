@@ -324,8 +324,8 @@ impl Scale {
     }
 }
 
-/// Columns PLY and text points lack: a single return, never classified, no flags.
-pub(crate) fn push_defaults(b: &mut PointBatch) {
+/// Columns PLY, text and tileset points lack: a single return, never classified, no flags.
+pub fn push_defaults(b: &mut PointBatch) {
     b.returns.push(0x11);
     b.flags.push(0);
     b.classification.push(0);

@@ -52,6 +52,24 @@ pub enum StreamKind {
 }
 
 impl StreamKind {
+    /// The stream colouring by `mode` reads besides positions (none for elevation).
+    pub fn for_color(mode: pointlet_core::color::ColorMode) -> Option<StreamKind> {
+        use pointlet_core::color::ColorMode;
+        match mode {
+            ColorMode::Rgb => Some(StreamKind::Rgb),
+            ColorMode::Intensity => Some(StreamKind::Intensity),
+            ColorMode::Elevation => None,
+            ColorMode::Classification => Some(StreamKind::Classification),
+            ColorMode::ReturnNumber => Some(StreamKind::Returns),
+            ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
+            ColorMode::GpsTime => Some(StreamKind::GpsTime),
+            ColorMode::ScanAngle => Some(StreamKind::ScanAngle),
+            ColorMode::UserData => Some(StreamKind::UserData),
+            ColorMode::Nir => Some(StreamKind::Nir),
+            ColorMode::Extra(_) => Some(StreamKind::ExtraBytes),
+        }
+    }
+
     pub const ALL: [StreamKind; 13] = [
         StreamKind::Position,
         StreamKind::Intensity,

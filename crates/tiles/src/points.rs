@@ -205,13 +205,11 @@ impl TilesetPoints {
         };
         for i in range {
             batch.intensity.push(at(intensity, i, 65535.0) as u16);
-            batch.classification.push(at(classes, i, 255.0) as u8);
-            // One return of one, as LAS readers default points without returns.
-            batch.returns.push(0x11);
-            batch.flags.push(0);
-            batch.scan_angle.push(0.0);
-            batch.user_data.push(0);
-            batch.point_source_id.push(0);
+            // push_defaults also pushes class 0: the tile's own class replaces it.
+            pointlet_io::push_defaults(batch);
+            if let Some(last) = batch.classification.last_mut() {
+                *last = at(classes, i, 255.0) as u8;
+            }
         }
     }
 }

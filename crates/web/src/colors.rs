@@ -5,28 +5,11 @@ use pointlet_core::color::{point_color, ColorMode, ColorScale};
 use pointlet_core::PointBatch;
 use pointlet_store::{decode_positions, StoreHeader, StreamKind};
 
-/// The stream a colour mode reads besides positions (none for elevation).
-pub fn stream_for(mode: ColorMode) -> Option<StreamKind> {
-    match mode {
-        ColorMode::Rgb => Some(StreamKind::Rgb),
-        ColorMode::Intensity => Some(StreamKind::Intensity),
-        ColorMode::Elevation => None,
-        ColorMode::Classification => Some(StreamKind::Classification),
-        ColorMode::ReturnNumber => Some(StreamKind::Returns),
-        ColorMode::PointSourceId => Some(StreamKind::PointSourceId),
-        ColorMode::GpsTime => Some(StreamKind::GpsTime),
-        ColorMode::ScanAngle => Some(StreamKind::ScanAngle),
-        ColorMode::UserData => Some(StreamKind::UserData),
-        ColorMode::Nir => Some(StreamKind::Nir),
-        ColorMode::Extra(_) => Some(StreamKind::ExtraBytes),
-    }
-}
-
 /// The streams a fetch reads for `mode`: positions, the attribute's stream (if the store has
 /// it) and the classes (hidden classes are decided on them, in the colour's alpha byte).
 pub fn fetch_streams(header: &StoreHeader, mode: ColorMode) -> Vec<StreamKind> {
     let mut kinds = vec![StreamKind::Position];
-    if let Some(kind) = stream_for(mode).filter(|k| header.stream(*k).is_some()) {
+    if let Some(kind) = StreamKind::for_color(mode).filter(|k| header.stream(*k).is_some()) {
         kinds.push(kind);
     }
     if header.stream(StreamKind::Classification).is_some() && mode != ColorMode::Classification {
