@@ -3,6 +3,8 @@
 # the viewer's window test runs under an Xvfb server it starts itself).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# A one-off build gains nothing from incremental caches, which only cost disk.
+export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
 bash scripts/ensure-vulkan.sh
 bash scripts/ensure-xvfb.sh
 bash scripts/ensure-moto.sh
