@@ -18,6 +18,9 @@ use pointlet_stream::{CacheConfig, CacheStats, RamCache};
 use std::path::Path;
 use std::sync::Arc;
 
+/// Pointlets one loader reads at once from a remote store.
+const REMOTE_LOAD_BATCH: usize = 64;
+
 #[derive(Clone, Debug)]
 pub struct SceneConfig {
     /// GPU memory for points and every table (the framebuffers of the target count too).
@@ -202,6 +205,13 @@ impl VirtualScene {
             CacheConfig {
                 ram_budget: config.ram_budget,
                 loaders: config.loaders.max(1),
+                // Over the network each read waits a round trip: a loader fetches many
+                // pointlets' ranges at once (joined, several requests in flight).
+                batch: if pointlet_store::is_remote(store.path()) {
+                    REMOTE_LOAD_BATCH
+                } else {
+                    1
+                },
                 ..Default::default()
             },
         )

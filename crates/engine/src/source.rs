@@ -81,33 +81,73 @@ impl StoreSource {
         range: Range<u32>,
         positions: bool,
     ) -> Result<(Vec<[i32; 3]>, Vec<u32>), SourceError> {
+        let requests = [(i, range.clone())];
+        self.read_many_with_colors(&requests, positions)
+            .map_err(|e| self.error(i, &range, e))?
+            .pop()
+            .ok_or_else(|| self.error(i, &range, "nothing read"))
+    }
+
+    /// [`read_with_colors`](Self::read_with_colors) for many requests, their streams read as
+    /// one batch of ranges.
+    fn read_many_with_colors(
+        &self,
+        requests: &[(usize, Range<u32>)],
+        positions: bool,
+    ) -> Result<Vec<(Vec<[i32; 3]>, Vec<u32>)>, pointlet_store::StoreError> {
         let scale = self.scale();
-        let n = (range.end - range.start) as usize;
         let mut kinds = self.color_streams(&scale);
         if positions && !kinds.contains(&StreamKind::Position) {
             kinds.push(StreamKind::Position);
         }
-        let raws = self
-            .store
-            .read_streams_raw(i, range.clone(), &kinds)
-            .map_err(|e| self.error(i, &range, e))?;
+        let raws = self.store.read_streams_raw_many(requests, &kinds)?;
         let q = self.store.header().quantization;
-        let mut batch = PointBatch::default();
-        let mut xyz = Vec::new();
-        for (kind, raw) in kinds.iter().zip(&raws) {
-            if *kind == StreamKind::Position {
-                xyz = pointlet_store::decode_positions(raw);
-            } else {
-                fill_column(&mut batch, *kind, raw);
-            }
-        }
-        if scale.mode == ColorMode::Elevation {
-            batch.xyz = xyz.iter().map(|p| q.dequantize(*p)).collect();
-        }
-        // Extra bytes are read point by point at the store's width.
-        batch.layout.extra_bytes = self.store.header().layout.extra_bytes;
-        let colors = (0..n).map(|k| point_color(&batch, k, &scale)).collect();
-        Ok((xyz, colors))
+        let extra_bytes = self.store.header().layout.extra_bytes;
+        Ok(requests
+            .iter()
+            .zip(raws)
+            .map(|((_, range), raws)| {
+                let n = (range.end - range.start) as usize;
+                let mut batch = PointBatch::default();
+                let mut xyz = Vec::new();
+                for (kind, raw) in kinds.iter().zip(&raws) {
+                    if *kind == StreamKind::Position {
+                        xyz = pointlet_store::decode_positions(raw);
+                    } else {
+                        fill_column(&mut batch, *kind, raw);
+                    }
+                }
+                if scale.mode == ColorMode::Elevation {
+                    batch.xyz = xyz.iter().map(|p| q.dequantize(*p)).collect();
+                }
+                // Extra bytes are read point by point at the store's width.
+                batch.layout.extra_bytes = extra_bytes;
+                let colors = (0..n).map(|k| point_color(&batch, k, &scale)).collect();
+                (xyz, colors)
+            })
+            .collect())
+    }
+
+    /// Appends the GPU encoding of `positions` of pointlet `i` and their colours to `out`.
+    fn encode_into(
+        &self,
+        i: usize,
+        range: &Range<u32>,
+        (positions, colors): (Vec<[i32; 3]>, Vec<u32>),
+        out: &mut PointletData,
+    ) -> Result<(), SourceError> {
+        let Some(entry) = self.store.pointlets().get(i) else {
+            return Err(self.error(i, range, "no such pointlet"));
+        };
+        let q = self.store.header().quantization;
+        let (origin, step) = (entry.aabb.min, compact_step(entry.aabb.extent()));
+        out.positions.extend(
+            positions
+                .iter()
+                .map(|p| encode_point(q.dequantize(*p), origin, step, self.encoding)),
+        );
+        out.attribute.extend_from_slice(&colors);
+        Ok(())
     }
 
     fn error(&self, i: usize, range: &Range<u32>, e: impl std::fmt::Display) -> SourceError {
@@ -129,19 +169,28 @@ impl PointletSource for StoreSource {
     }
 
     fn read(&self, i: usize, range: Range<u32>, out: &mut PointletData) -> Result<(), SourceError> {
-        let (positions, colors) = self.read_with_colors(i, range.clone(), true)?;
-        let Some(entry) = self.store.pointlets().get(i) else {
-            return Err(self.error(i, &range, "no such pointlet"));
-        };
-        let q = self.store.header().quantization;
-        let (origin, step) = (entry.aabb.min, compact_step(entry.aabb.extent()));
-        out.positions.extend(
-            positions
+        let read = self.read_with_colors(i, range.clone(), true)?;
+        self.encode_into(i, &range, read, out)
+    }
+
+    fn read_many(
+        &self,
+        requests: &[(usize, Range<u32>)],
+        outs: &mut [PointletData],
+    ) -> Vec<Result<(), SourceError>> {
+        match self.read_many_with_colors(requests, true) {
+            Ok(reads) => requests
                 .iter()
-                .map(|p| encode_point(q.dequantize(*p), origin, step, self.encoding)),
-        );
-        out.attribute.extend_from_slice(&colors);
-        Ok(())
+                .zip(reads)
+                .zip(outs.iter_mut())
+                .map(|(((i, range), read), out)| self.encode_into(*i, range, read, out))
+                .collect(),
+            // One failed fetch fails the batch: every pointlet in it reports the error.
+            Err(e) => requests
+                .iter()
+                .map(|(i, range)| Err(self.error(*i, range, &e)))
+                .collect(),
+        }
     }
 }
 

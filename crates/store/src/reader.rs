@@ -211,18 +211,20 @@ impl Store {
         range: Range<u32>,
         kinds: &[StreamKind],
     ) -> Result<Vec<Vec<u8>>, StoreError> {
-        let e = *self.entry(i)?;
-        if range.start > range.end || range.end > e.count {
-            return Err(StoreError::request(
-                &self.path,
-                format!(
-                    "points {range:?} are outside pointlet {i} of {} points",
-                    e.count
-                ),
-            ));
-        }
-        let mut offsets = Vec::with_capacity(kinds.len());
-        let mut out = Vec::with_capacity(kinds.len());
+        let mut all = self.read_streams_raw_many(&[(i, range)], kinds)?;
+        Ok(all.pop().unwrap_or_default())
+    }
+
+    /// [`read_streams_raw`](Self::read_streams_raw) for many (pointlet, range) requests at
+    /// once, as one [`ByteSource::read_ranges`]: a remote store joins neighbouring ranges and
+    /// keeps several requests in flight, so a batch costs about one round trip, not one each.
+    /// Result k holds request k's streams in the order of `kinds`.
+    pub fn read_streams_raw_many(
+        &self,
+        requests: &[(usize, Range<u32>)],
+        kinds: &[StreamKind],
+    ) -> Result<Vec<Vec<Vec<u8>>>, StoreError> {
+        let mut streams = Vec::with_capacity(kinds.len());
         for kind in kinds {
             let s = self.header.stream(*kind).ok_or_else(|| {
                 StoreError::request(
@@ -230,13 +232,32 @@ impl Store {
                     format!("the store has no {} stream", kind.name()),
                 )
             })?;
-            let bpp = s.bytes_per_point as u64;
-            offsets.push(s.offset + (e.first + range.start as u64) * bpp);
-            out.push(vec![0u8; (range.end - range.start) as usize * bpp as usize]);
+            streams.push((s.offset, s.bytes_per_point as u64));
+        }
+        let mut offsets = Vec::with_capacity(requests.len() * kinds.len());
+        let mut out = Vec::with_capacity(requests.len());
+        for (i, range) in requests {
+            let e = *self.entry(*i)?;
+            if range.start > range.end || range.end > e.count {
+                return Err(StoreError::request(
+                    &self.path,
+                    format!(
+                        "points {range:?} are outside pointlet {i} of {} points",
+                        e.count
+                    ),
+                ));
+            }
+            let n = (range.end - range.start) as u64;
+            let mut bufs = Vec::with_capacity(kinds.len());
+            for (offset, bpp) in &streams {
+                offsets.push(offset + (e.first + range.start as u64) * bpp);
+                bufs.push(vec![0u8; (n * bpp) as usize]);
+            }
+            out.push(bufs);
         }
         let mut reads: Vec<(u64, &mut [u8])> = offsets
             .into_iter()
-            .zip(out.iter_mut())
+            .zip(out.iter_mut().flatten())
             .map(|(o, b)| (o, b.as_mut_slice()))
             .collect();
         self.source

@@ -19,6 +19,10 @@ pub struct CacheConfig {
     pub prefetch: f64,
     /// Fraction of the budget above which unused points are unloaded.
     pub pressure: f64,
+    /// Load tasks a loader takes from the queue at once and hands to
+    /// [`PointletSource::read_many`]: 1 for a local disk, more where each read waits for a
+    /// round trip.
+    pub batch: usize,
 }
 
 impl Default for CacheConfig {
@@ -29,6 +33,7 @@ impl Default for CacheConfig {
             queue_capacity: 4096,
             prefetch: 0.25,
             pressure: 0.9,
+            batch: 1,
         }
     }
 }
@@ -352,25 +357,39 @@ fn lower_priority() {
 
 fn worker<S: PointletSource>(sh: &Shared<S>, rx: &Mutex<Receiver<Task>>) {
     lower_priority();
+    let batch = sh.config.batch.max(1);
+    let mut tasks = Vec::with_capacity(batch);
     loop {
-        let task = match rx.lock() {
-            Ok(r) => r.recv(),
-            Err(_) => return,
-        };
-        let Ok(task) = task else { return };
-        sh.in_flight.fetch_add(1, AcqRel);
-        sh.queued.fetch_sub(1, AcqRel);
-        match task {
-            Task::Load(i) => {
-                sh.load_queued[i as usize].store(false, Release);
-                load(sh, i as usize);
-            }
-            Task::Unload(i) => {
-                sh.unload_queued[i as usize].store(false, Release);
-                unload(sh, i as usize);
+        tasks.clear();
+        {
+            let Ok(r) = rx.lock() else { return };
+            let Ok(first) = r.recv() else { return };
+            tasks.push(first);
+            // Whatever else is queued already joins this batch (never waits for more).
+            while tasks.len() < batch {
+                match r.try_recv() {
+                    Ok(t) => tasks.push(t),
+                    Err(_) => break,
+                }
             }
         }
-        sh.in_flight.fetch_sub(1, AcqRel);
+        sh.in_flight.fetch_add(tasks.len(), AcqRel);
+        sh.queued.fetch_sub(tasks.len(), AcqRel);
+        let mut loads = Vec::with_capacity(tasks.len());
+        for task in &tasks {
+            match *task {
+                Task::Load(i) => {
+                    sh.load_queued[i as usize].store(false, Release);
+                    loads.push(i as usize);
+                }
+                Task::Unload(i) => {
+                    sh.unload_queued[i as usize].store(false, Release);
+                    unload(sh, i as usize);
+                }
+            }
+        }
+        load(sh, &loads);
+        sh.in_flight.fetch_sub(tasks.len(), AcqRel);
     }
 }
 
@@ -397,13 +416,72 @@ fn reserve(sh: &Shared<impl PointletSource>, points: u32) -> u32 {
     }
 }
 
-fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
-    if sh.busy[i]
-        .compare_exchange(false, true, AcqRel, Relaxed)
-        .is_err()
-    {
-        return; // another loader is already bringing this pointlet up to date
+/// Brings pointlets `ids` up to what is wanted of them, their reads issued as one batch.
+fn load<S: PointletSource>(sh: &Shared<S>, ids: &[usize]) {
+    let mut requests = Vec::with_capacity(ids.len());
+    for &i in ids {
+        if sh.busy[i]
+            .compare_exchange(false, true, AcqRel, Relaxed)
+            .is_err()
+        {
+            continue; // another loader is already bringing this pointlet up to date
+        }
+        match plan_load(sh, i) {
+            Some(range) => requests.push((i, range)),
+            None => sh.busy[i].store(false, Release),
+        }
     }
+    if requests.is_empty() {
+        return;
+    }
+    let mut fresh: Vec<PointletData> = requests
+        .iter()
+        .map(|(_, r)| {
+            let n = (r.end - r.start) as usize;
+            PointletData {
+                start: r.start,
+                positions: Vec::with_capacity(n),
+                attribute: Vec::with_capacity(n),
+            }
+        })
+        .collect();
+    let results = sh.source.read_many(&requests, &mut fresh);
+    for (((i, range), data), result) in requests.into_iter().zip(fresh).zip(results) {
+        let granted = range.end - range.start;
+        match result {
+            Ok(()) if data.len() == granted as usize => {
+                if let Ok(mut slot) = sh.slots[i].lock() {
+                    slot.positions.extend_from_slice(&data.positions);
+                    slot.attribute.extend_from_slice(&data.attribute);
+                    sh.loaded[i].store(slot.end(), Release);
+                }
+                sh.points_loaded.fetch_add(granted as u64, Relaxed);
+            }
+            Ok(()) => {
+                sh.ram_used
+                    .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
+                record_error(
+                    sh,
+                    SourceError {
+                        pointlet: i,
+                        range,
+                        message: format!("source returned {} points", data.len()),
+                    },
+                );
+            }
+            Err(e) => {
+                sh.ram_used
+                    .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
+                record_error(sh, e);
+            }
+        }
+        sh.busy[i].store(false, Release);
+    }
+}
+
+/// With pointlet `i` owned (busy): restarts its window where needed and reserves RAM for the
+/// next read; the points to read, if any.
+fn plan_load<S: PointletSource>(sh: &Shared<S>, i: usize) -> Option<std::ops::Range<u32>> {
     sh.load_tasks.fetch_add(1, Relaxed);
     let mut have = sh.loaded[i].load(Acquire);
     let want = sh.wanted[i].load(Relaxed);
@@ -424,57 +502,23 @@ fn load<S: PointletSource>(sh: &Shared<S>, i: usize) {
             have = keep;
         }
     }
-    if want > have {
-        let len = sh.source.pointlet_len(i);
-        let budget = sh.config.ram_budget as f64;
-        let ahead = ((want as f64) * sh.config.prefetch).ceil() as u32;
-        let with_prefetch = want.saturating_add(ahead).min(len);
-        let used = sh.ram_used.load(Relaxed) as f64;
-        // Prefetch only while the cache stays below the pressure mark afterwards.
-        let extra_bytes = (with_prefetch - have) as f64 * BYTES_PER_POINT as f64;
-        let target = if used + extra_bytes <= budget * sh.config.pressure {
-            with_prefetch
-        } else {
-            want
-        };
-        let granted = reserve(sh, target - have);
-        if granted > 0 {
-            let mut fresh = PointletData {
-                start: have,
-                ..Default::default()
-            };
-            fresh.positions.reserve_exact(granted as usize);
-            fresh.attribute.reserve_exact(granted as usize);
-            match sh.source.read(i, have..have + granted, &mut fresh) {
-                Ok(()) if fresh.len() == granted as usize => {
-                    if let Ok(mut slot) = sh.slots[i].lock() {
-                        slot.positions.extend_from_slice(&fresh.positions);
-                        slot.attribute.extend_from_slice(&fresh.attribute);
-                        sh.loaded[i].store(slot.end(), Release);
-                    }
-                    sh.points_loaded.fetch_add(granted as u64, Relaxed);
-                }
-                Ok(()) => {
-                    sh.ram_used
-                        .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
-                    record_error(
-                        sh,
-                        SourceError {
-                            pointlet: i,
-                            range: have..have + granted,
-                            message: format!("source returned {} points", fresh.len()),
-                        },
-                    );
-                }
-                Err(e) => {
-                    sh.ram_used
-                        .fetch_sub(granted as u64 * BYTES_PER_POINT, AcqRel);
-                    record_error(sh, e);
-                }
-            }
-        }
+    if want <= have {
+        return None;
     }
-    sh.busy[i].store(false, Release);
+    let len = sh.source.pointlet_len(i);
+    let budget = sh.config.ram_budget as f64;
+    let ahead = ((want as f64) * sh.config.prefetch).ceil() as u32;
+    let with_prefetch = want.saturating_add(ahead).min(len);
+    let used = sh.ram_used.load(Relaxed) as f64;
+    // Prefetch only while the cache stays below the pressure mark afterwards.
+    let extra_bytes = (with_prefetch - have) as f64 * BYTES_PER_POINT as f64;
+    let target = if used + extra_bytes <= budget * sh.config.pressure {
+        with_prefetch
+    } else {
+        want
+    };
+    let granted = reserve(sh, target - have);
+    (granted > 0).then_some(have..have + granted)
 }
 
 fn unload<S: PointletSource>(sh: &Shared<S>, i: usize) {
@@ -519,6 +563,8 @@ mod tests {
         pointlets: usize,
         size: u32,
         fail_on: Option<usize>,
+        /// The most requests one read_many was given.
+        largest_batch: AtomicUsize,
     }
 
     impl PointletSource for Synthetic {
@@ -542,13 +588,34 @@ mod tests {
             }
             Ok(())
         }
+        fn read_many(
+            &self,
+            requests: &[(usize, Range<u32>)],
+            outs: &mut [PointletData],
+        ) -> Vec<Result<(), SourceError>> {
+            self.largest_batch.fetch_max(requests.len(), Relaxed);
+            requests
+                .iter()
+                .zip(outs.iter_mut())
+                .map(|((i, r), out)| self.read(*i, r.clone(), out))
+                .collect()
+        }
     }
 
     fn cache(budget_points: u64, fail_on: Option<usize>) -> RamCache<Synthetic> {
+        cache_batched(budget_points, fail_on, 1)
+    }
+
+    fn cache_batched(
+        budget_points: u64,
+        fail_on: Option<usize>,
+        batch: usize,
+    ) -> RamCache<Synthetic> {
         let src = Synthetic {
             pointlets: 100,
             size: 1000,
             fail_on,
+            largest_batch: AtomicUsize::new(0),
         };
         RamCache::new(
             src,
@@ -556,6 +623,7 @@ mod tests {
                 ram_budget: budget_points * BYTES_PER_POINT,
                 loaders: 3,
                 queue_capacity: 64,
+                batch,
                 ..Default::default()
             },
         )
@@ -587,6 +655,29 @@ mod tests {
         }
         // Plenty of RAM: prefetch read beyond the request.
         assert!(c.stats().points_loaded > wanted.iter().map(|w| *w as u64).sum::<u64>());
+    }
+
+    #[test]
+    fn batched_loads_hold_the_same_points_and_errors_stay_per_pointlet() {
+        let wanted: Vec<u32> = (0..100).map(|i| (i * 7 % 1000) as u32).collect();
+        let mut one = cache(1_000_000, Some(3));
+        let mut many = cache_batched(1_000_000, Some(3), 16);
+        // A whole frame's tasks are queued before the loaders may take them.
+        for c in [&mut one, &mut many] {
+            settle(c, &wanted);
+        }
+        assert_eq!(one.source().largest_batch.load(Relaxed), 1);
+        assert!(many.source().largest_batch.load(Relaxed) > 1);
+        for i in 0..100 {
+            assert_eq!(one.held(i).start, many.held(i).start);
+            let w = if i == 3 { 0 } else { wanted[i] };
+            assert!(many.resident(i) >= w, "pointlet {i}");
+            let a = one.with_points(i, 0..w, |_, p, a| (p.to_vec(), a.to_vec()));
+            let b = many.with_points(i, 0..w, |_, p, a| (p.to_vec(), a.to_vec()));
+            assert_eq!(a, b, "pointlet {i}");
+        }
+        assert_eq!(many.resident(3), 0);
+        assert!(many.take_error().is_some_and(|e| e.pointlet == 3));
     }
 
     #[test]

@@ -74,4 +74,19 @@ pub trait PointletSource: Send + Sync + 'static {
     fn pointlet_len(&self, i: usize) -> u32;
     /// Appends points `range` of pointlet `i` to `out`.
     fn read(&self, i: usize, range: Range<u32>, out: &mut PointletData) -> Result<(), SourceError>;
+
+    /// Appends points `requests[k].1` of pointlet `requests[k].0` to `outs[k]`, one result per
+    /// request. Sources whose reads cost a round trip (a store over the network) override it to
+    /// fetch the whole batch at once.
+    fn read_many(
+        &self,
+        requests: &[(usize, Range<u32>)],
+        outs: &mut [PointletData],
+    ) -> Vec<Result<(), SourceError>> {
+        requests
+            .iter()
+            .zip(outs.iter_mut())
+            .map(|((i, r), out)| self.read(*i, r.clone(), out))
+            .collect()
+    }
 }
