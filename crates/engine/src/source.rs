@@ -12,6 +12,9 @@ use pointlet_stream::{PointletData, PointletSource, SourceError};
 use std::ops::Range;
 use std::sync::{Arc, RwLock};
 
+/// Quantized positions (empty unless asked for) and colours of a read range.
+type PointsRead = (Vec<[i32; 3]>, Vec<u32>);
+
 pub struct StoreSource {
     store: Arc<Store>,
     encoding: PointEncoding,
@@ -80,7 +83,7 @@ impl StoreSource {
         i: usize,
         range: Range<u32>,
         positions: bool,
-    ) -> Result<(Vec<[i32; 3]>, Vec<u32>), SourceError> {
+    ) -> Result<PointsRead, SourceError> {
         let requests = [(i, range.clone())];
         self.read_many_with_colors(&requests, positions)
             .map_err(|e| self.error(i, &range, e))?
@@ -94,7 +97,7 @@ impl StoreSource {
         &self,
         requests: &[(usize, Range<u32>)],
         positions: bool,
-    ) -> Result<Vec<(Vec<[i32; 3]>, Vec<u32>)>, pointlet_store::StoreError> {
+    ) -> Result<Vec<PointsRead>, pointlet_store::StoreError> {
         let scale = self.scale();
         let mut kinds = self.color_streams(&scale);
         if positions && !kinds.contains(&StreamKind::Position) {
@@ -133,7 +136,7 @@ impl StoreSource {
         &self,
         i: usize,
         range: &Range<u32>,
-        (positions, colors): (Vec<[i32; 3]>, Vec<u32>),
+        (positions, colors): PointsRead,
         out: &mut PointletData,
     ) -> Result<(), SourceError> {
         let Some(entry) = self.store.pointlets().get(i) else {
