@@ -5,7 +5,7 @@
 mod common;
 use common::range_server::{Fault, RangeServer};
 use common::*;
-use pointlet_store::{BuildConfig, Store};
+use pointlet_store::{BuildConfig, Store, StreamKind};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -74,6 +74,35 @@ fn transient_faults_are_retried() {
             all_points(&local),
             "after {fault:?} the read is retried and right"
         );
+    }
+}
+
+/// Prefixes and middles of every pointlet in every stream, as the loaders read them in batches.
+fn batched_ranges(store: &Store) -> Vec<Vec<Vec<u8>>> {
+    let requests: Vec<(usize, std::ops::Range<u32>)> = store
+        .pointlets()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i, (i as u32 % 3) * p.count / 4..p.count - p.count / 5))
+        .collect();
+    let kinds: Vec<StreamKind> = store.header().streams.iter().map(|s| s.kind).collect();
+    store
+        .read_streams_raw_many(&requests, &kinds)
+        .expect("batched read")
+}
+
+#[test]
+fn batched_range_reads_survive_faults_and_match_the_local_file() {
+    quick_timeouts();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (bytes, local) = store_bytes(dir.path());
+    let server = RangeServer::start(bytes);
+    let remote = Store::open(Path::new(&server.url("s.pointlet"))).expect("open");
+    let expected = batched_ranges(&local);
+    assert_eq!(batched_ranges(&remote), expected);
+    for fault in [Fault::Status(503, 3), Fault::Reset(2), Fault::Short(2)] {
+        server.inject(fault);
+        assert_eq!(batched_ranges(&remote), expected, "after {fault:?}");
     }
 }
 
