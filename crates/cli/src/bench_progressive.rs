@@ -67,8 +67,9 @@ struct Summary<'a> {
 
 pub fn run(args: &Args) -> Result<()> {
     let file = args.store.as_path();
+    let inputs = [args.store.clone()];
     let (ctx, variant) = crate::render_cmd::open_gpu(&args.draw)?;
-    let color = progressive_cmd::resolve_color(file, &args.read, args.draw.color.as_ref())?;
+    let color = progressive_cmd::resolve_color(&inputs, &args.read, args.draw.color.as_ref())?;
     let target_fps = args.target_fps.unwrap_or(60.0);
     let config = progressive_cmd::config(
         &args.draw,
@@ -81,7 +82,7 @@ pub fn run(args: &Args) -> Result<()> {
     let vram_budget = config.vram_budget;
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let began = Instant::now();
-    let mut scene = progressive_cmd::open(&ctx, file, config)?;
+    let mut scene = progressive_cmd::open(&ctx, &inputs, config)?;
     let bounds = scene.bounds();
     let flight = Flight::new(args, bounds)?;
     let (path, cameras) = (&flight.path, &flight.cameras);

@@ -102,7 +102,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     // Read before the copy kernel is timed: a bad input fails at once.
     let scene = crate::scene::load(
-        args.input.as_deref(),
+        args.input.as_slice(),
         &crate::load::ReadArgs::default(),
         None,
         args.points,

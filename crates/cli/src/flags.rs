@@ -55,6 +55,9 @@ impl Given<'_> {
 /// What a drawing command was given to draw.
 fn input_kind(input: Option<&Path>) -> &'static str {
     match input {
+        Some(p) if p == Path::new(crate::load::SEVERAL_INPUTS) => {
+            "several inputs (drawn together as one point file)"
+        }
         Some(p) if crate::load::is_store_path(p) => "a store",
         Some(_) => "a point file",
         None => "the demo scene",
@@ -69,27 +72,21 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             let store_only = [&VIRTUAL[..], &["max_frames", "no_converge"]].concat();
             // Point files drawn while loading also take a VRAM budget and a frame limit.
             let also_progressive = ["vram_budget", "max_frames"];
-            drawing(
-                given,
-                a.input.as_deref(),
-                &a.draw,
-                &store_only,
-                &also_progressive,
-            )
+            drawing(given, a.input(), &a.draw, &store_only, &also_progressive)
         }
         Command::View(a) => {
             camera(given, &a.camera)?;
             let store_only = ["vram_budget", "ram_budget", "bucket", "converge_timeout"];
-            if !crate::progressive_cmd::is_progressive(a.input.as_deref(), &a.draw) {
+            if !crate::progressive_cmd::is_progressive(a.input(), &a.draw) {
                 given.refuse(
                     &PROGRESSIVE,
                     "point files drawn while they load",
-                    input_kind(a.input.as_deref()),
+                    input_kind(a.input()),
                 )?;
             }
             drawing(
                 given,
-                a.input.as_deref(),
+                a.input(),
                 &a.draw,
                 &store_only,
                 &["vram_budget", "converge_timeout"],
@@ -260,7 +257,11 @@ fn kind_flags(
             if crate::load::is_store_path(p) {
                 given.refuse(&READING, "point files", "a store")?;
             }
-            let kind = "a point file drawn while it loads (a closest-point --raster)";
+            let kind = if p == Path::new(crate::load::SEVERAL_INPUTS) {
+                "several inputs drawn together while they load (a closest-point --raster)"
+            } else {
+                "a point file drawn while it loads (a closest-point --raster)"
+            };
             given.refuse(
                 &SHUFFLED,
                 "the demo scene and point files drawn whole (--raster hqs, hqs1r, \

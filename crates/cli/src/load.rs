@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use pointlet_core::Aabb;
 use pointlet_io::{PointReader, ReadOptions};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// How to read point files, for what their content does not say.
 #[derive(clap::Args, Clone, Debug, Default)]
@@ -33,6 +33,19 @@ pub fn open_point_file(path: &Path, read: &ReadArgs) -> Result<Box<dyn PointRead
 pub fn print_notes(reader: &dyn PointReader) {
     for n in reader.notes() {
         eprintln!("note: {}: {n}", reader.path().display());
+    }
+}
+
+/// What the flag checks and the point-size default see when `render` or `view` is given
+/// several inputs: they are drawn together as one point file (stores among them included).
+pub const SEVERAL_INPUTS: &str = "several inputs";
+
+/// The one input drawn, [`SEVERAL_INPUTS`] for several, `None` for the demo scene.
+pub fn drawn_input(inputs: &[PathBuf]) -> Option<&Path> {
+    match inputs {
+        [] => None,
+        [one] => Some(one),
+        _ => Some(Path::new(SEVERAL_INPUTS)),
     }
 }
 

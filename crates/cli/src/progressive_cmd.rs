@@ -9,7 +9,7 @@ use pointlet_core::color::ColorMode;
 use pointlet_engine::progressive::LoadConfig;
 use pointlet_engine::{ProgressiveConfig, ProgressiveScene};
 use pointlet_gpu::{GpuContext, RasterVariant, RenderTarget};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Default GPU memory for a point file's shuffled buffer.
@@ -26,7 +26,7 @@ pub fn is_progressive(input: Option<&Path>, draw: &DrawArgs) -> bool {
 /// The colouring asked for, resolved against the file for `extra:NAME` (the load thread picks
 /// the default when none was asked for).
 pub fn resolve_color(
-    path: &Path,
+    inputs: &[PathBuf],
     read: &ReadArgs,
     asked: Option<&ColorArg>,
 ) -> Result<Option<ColorMode>> {
@@ -34,10 +34,10 @@ pub fn resolve_color(
         None => Ok(None),
         Some(ColorArg::Mode(m)) => Ok(Some(*m)),
         Some(extra @ ColorArg::Extra(_)) => {
-            let reader = pointlet_engine::open_points(path, &read.options())?;
+            let reader = pointlet_engine::open_inputs(inputs, &read.options())?;
             let meta = reader.meta();
             let extras = crate::scene::extras_of(&meta.vlrs, &meta.layout);
-            let name = path.display().to_string();
+            let name = reader.path().display().to_string();
             let mode =
                 crate::scene::choose_color(Some(extra), &meta.layout, &extras, &name, || {
                     bail!("no default needed")
@@ -70,12 +70,20 @@ pub fn config(
     }
 }
 
-/// Opens `path` progressively and says what the reader noted.
-pub fn open(ctx: &GpuContext, path: &Path, config: ProgressiveConfig) -> Result<ProgressiveScene> {
+/// Opens `inputs` progressively and says what the readers noted.
+pub fn open(
+    ctx: &GpuContext,
+    inputs: &[PathBuf],
+    config: ProgressiveConfig,
+) -> Result<ProgressiveScene> {
     // The engine's errors name the file already.
-    let scene = ProgressiveScene::open(ctx, path, config)?;
+    let scene = ProgressiveScene::open_many(ctx, inputs, config)?;
     for n in scene.notes() {
-        eprintln!("note: {}: {n}", path.display());
+        match inputs {
+            [one] => eprintln!("note: {}: {n}", one.display()),
+            // Several inputs' notes name their file.
+            _ => eprintln!("note: {n}"),
+        }
     }
     if scene.slots() < scene.points() {
         eprintln!("note: {}", subset_note(&scene));
@@ -98,9 +106,9 @@ pub fn subset_note(scene: &ProgressiveScene) -> String {
 /// `render` of a point file: frames of the still camera while the file loads, each drawing
 /// every slot, until all points are in and drawn; the image is then the one of drawing every
 /// point at once.
-pub fn render(args: &crate::render_cmd::Args, path: &Path) -> Result<()> {
+pub fn render(args: &crate::render_cmd::Args, inputs: &[PathBuf]) -> Result<()> {
     let (ctx, variant) = crate::render_cmd::open_gpu(&args.draw)?;
-    let color = resolve_color(path, &args.read, args.draw.color.as_ref())?;
+    let color = resolve_color(inputs, &args.read, args.draw.color.as_ref())?;
     let mut config = config(
         &args.draw,
         &args.read,
@@ -113,9 +121,10 @@ pub fn render(args: &crate::render_cmd::Args, path: &Path) -> Result<()> {
     // The image size is checked before the buffer is sized for the file.
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let started = Instant::now();
-    let mut scene = open(&ctx, path, config)?;
+    let mut scene = open(&ctx, inputs, config)?;
+    let path = scene.path().to_path_buf();
     let camera = args.camera.camera(&scene.bounds())?;
-    let settings = args.draw.settings_for(variant, Some(path));
+    let settings = args.draw.settings_for(variant, args.input());
     let mut noted = false;
     let mut last = None;
     for _ in 0..args.max_frames {

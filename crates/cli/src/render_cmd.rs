@@ -4,12 +4,14 @@ use crate::view_args::{CameraArgs, DrawArgs, VirtualArgs};
 use anyhow::{Context, Result};
 use pointlet_core::order::apply;
 use pointlet_gpu::{AdapterRequest, GpuCloud, GpuContext, PointSet, RenderTarget, Renderer};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A store or any point file; without one, the built-in demo scene.
-    pub input: Option<PathBuf>,
+    /// A store, any point file or a tileset; several are drawn together in one coordinate
+    /// frame (as one point file: stores among them are read whole); without one, the built-in
+    /// demo scene.
+    pub inputs: Vec<PathBuf>,
     /// The PNG to write.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -74,25 +76,26 @@ pub fn reorder(set: PointSet, order: pointlet_core::order::VertexOrder) -> Point
     }
 }
 
+impl Args {
+    /// The input as the flag checks see it ([`crate::load::drawn_input`]).
+    pub fn input(&self) -> Option<&Path> {
+        crate::load::drawn_input(&self.inputs)
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     crate::image_out::check_png_path(&args.output)?;
-    if let Some(file) = args
-        .input
-        .as_deref()
-        .filter(|p| crate::progressive_cmd::is_progressive(Some(p), &args.draw))
-    {
-        return crate::progressive_cmd::render(&args, file);
+    if crate::progressive_cmd::is_progressive(args.input(), &args.draw) {
+        return crate::progressive_cmd::render(&args, &args.inputs);
     }
-    if let Some(store) = args
-        .input
-        .as_deref()
-        .filter(|p| crate::load::is_store_path(p))
-    {
-        return render_store(&args, store);
+    if let [store] = &args.inputs[..] {
+        if crate::load::is_store_path(store) {
+            return render_store(&args, store);
+        }
     }
     let (ctx, variant) = open_gpu(&args.draw)?;
     let scene = crate::scene::load(
-        args.input.as_deref(),
+        &args.inputs,
         &args.read,
         args.draw.color.as_ref(),
         args.demo_points,
@@ -104,7 +107,7 @@ pub fn run(args: Args) -> Result<()> {
     drop(set);
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
     let mut renderer = Renderer::new(&ctx);
-    let settings = args.draw.settings_for(variant, args.input.as_deref());
+    let settings = args.draw.settings_for(variant, args.input());
     renderer.render(&ctx, &mut cloud, &camera, &settings, &mut target)?;
     let rgba = target.read_rgba(&ctx)?;
     let timing = renderer.timing(&ctx, &mut target)?;

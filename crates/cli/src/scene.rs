@@ -9,7 +9,7 @@ use pointlet_core::color::{
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::{Aabb, PointBatch, PointLayout};
 use pointlet_gpu::PointSet;
-use std::path::Path;
+use std::path::PathBuf;
 
 /// Points of the built-in demo scene when no input is given.
 pub const DEMO_POINTS: u64 = 2_000_000;
@@ -74,16 +74,16 @@ pub fn store_color(asked: Option<&ColorArg>, store: &pointlet_store::Store) -> R
     )
 }
 
-/// Reads every point of `input` (or the demo scene of `demo_points`) coloured by `asked`, or
-/// by the data's default colouring.
+/// Reads every point of `inputs` (several together; none: the demo scene of `demo_points`)
+/// coloured by `asked`, or by the data's default colouring.
 pub fn load(
-    input: Option<&Path>,
+    inputs: &[PathBuf],
     read: &crate::load::ReadArgs,
     asked: Option<&ColorArg>,
     demo_points: u64,
 ) -> Result<Scene> {
-    match input {
-        Some(p) if crate::load::is_store_path(p) => {
+    match inputs {
+        [p] if crate::load::is_store_path(p) => {
             let store = pointlet_store::Store::open(p)?;
             let mode = store_color(asked, &store)?;
             let h = store.header();
@@ -100,12 +100,18 @@ pub fn load(
             }
             acc.finish(name)
         }
-        Some(p) => read_all(
+        [p] => read_all(
             crate::load::open_point_file(p, read)?,
             asked,
             p.display().to_string(),
         ),
-        None => {
+        [_, _, ..] => {
+            let reader = pointlet_engine::open_inputs(inputs, &read.options())?;
+            crate::load::print_notes(reader.as_ref());
+            let name = reader.path().display().to_string();
+            read_all(reader, asked, name)
+        }
+        [] => {
             let generator =
                 pointlet_io::generate::SceneGenerator::new(pointlet_io::generate::SceneConfig {
                     points: demo_points,

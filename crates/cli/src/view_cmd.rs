@@ -5,13 +5,15 @@ use crate::view_args::ColorArg;
 use crate::view_args::{CameraArgs, DrawArgs};
 use anyhow::Result;
 use pointlet_viewer::{Automation, Input, StoreBudgets, ViewerConfig};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A store (streamed within the budgets) or any point file (drawn while it loads); without
-    /// one, the built-in demo scene.
-    pub input: Option<PathBuf>,
+    /// A store (streamed within the budgets), any point file or a tileset (drawn while it
+    /// loads); several are drawn together in one coordinate frame, each with a visibility
+    /// toggle (as one point file: stores among them are read whole); without one, the
+    /// built-in demo scene.
+    pub inputs: Vec<PathBuf>,
     /// Window width in pixels.
     #[arg(long, default_value_t = 1280)]
     pub width: u32,
@@ -58,17 +60,24 @@ pub struct Args {
     pub read: crate::load::ReadArgs,
 }
 
+impl Args {
+    /// The input as the flag checks see it ([`crate::load::drawn_input`]).
+    pub fn input(&self) -> Option<&Path> {
+        crate::load::drawn_input(&self.inputs)
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
-    let progressive = crate::progressive_cmd::is_progressive(args.input.as_deref(), &args.draw);
-    let input = match args.input.clone() {
-        Some(p) if crate::load::is_store_path(&p) && !progressive => Input::Store(p),
-        Some(p) => Input::File {
-            path: p,
-            read: args.read.options(),
-        },
-        None => Input::Demo {
+    let progressive = crate::progressive_cmd::is_progressive(args.input(), &args.draw);
+    let input = match &args.inputs[..] {
+        [p] if crate::load::is_store_path(p) && !progressive => Input::Store(p.clone()),
+        [] => Input::Demo {
             points: args.demo_points,
             seed: crate::scene::DEMO_SEED,
+        },
+        paths => Input::Files {
+            paths: paths.to_vec(),
+            read: args.read.options(),
         },
     };
     // An extra-bytes attribute is found by name in the input's description of its records.
@@ -79,17 +88,17 @@ pub fn run(args: Args) -> Result<()> {
             let store = crate::load::open_store(path, "view")?;
             Some(crate::scene::store_color(Some(asked), &store)?)
         }
-        (Some(asked), Input::File { path, .. }) if !progressive => {
-            crate::progressive_cmd::resolve_color(path, &args.read, Some(asked))?;
+        (Some(asked), Input::Files { paths, .. }) if !progressive => {
+            crate::progressive_cmd::resolve_color(paths, &args.read, Some(asked))?;
             anyhow::bail!(
                 "{}: a file read whole ({}) cannot be coloured by extra-bytes attributes; \
                  a closest-point --raster draws it while it loads and can",
-                path.display(),
+                pointlet_engine::inputs_name(paths).display(),
                 args.draw.raster.name()
             )
         }
-        (Some(asked), Input::File { path, .. }) => {
-            crate::progressive_cmd::resolve_color(path, &args.read, Some(asked))?
+        (Some(asked), Input::Files { paths, .. }) => {
+            crate::progressive_cmd::resolve_color(paths, &args.read, Some(asked))?
         }
         (Some(_), Input::Demo { .. }) => {
             anyhow::bail!("the demo scene has no extra-bytes attributes to colour by")
@@ -100,9 +109,7 @@ pub fn run(args: Args) -> Result<()> {
         input,
         camera: Box::new(move |bounds| camera_args.camera(bounds).map_err(|e| format!("{e:#}"))),
         size: (args.width, args.height),
-        settings: args
-            .draw
-            .settings_for(args.draw.raster, args.input.as_deref()),
+        settings: args.draw.settings_for(args.draw.raster, args.input()),
         color,
         encoding: args.draw.encoding,
         page_size: args.draw.page_size,

@@ -285,3 +285,55 @@ fn a_store_with_progressive_is_drawn_as_its_point_file_is() {
         &["--bucket"],
     );
 }
+
+#[test]
+fn several_inputs_render_together_as_their_merged_store_does() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (las, laz) = (data("simple.las"), data("autzen_trim.laz"));
+    let merged = dir.path().join("merged.pointlet");
+    ok(&["convert", s(&las), s(&laz), "-o", s(&merged)]);
+    let draw = |inputs: &[&Path], png: &Path, extra: &[&str]| {
+        let mut args = vec!["render"];
+        args.extend(inputs.iter().map(|p| s(p)));
+        args.extend_from_slice(&["-o", s(png), "--width", "240", "--height", "160"]);
+        args.extend_from_slice(&["--color", "classification"]);
+        args.extend_from_slice(extra);
+        let err = ok_stderr(&args);
+        assert!(err.contains("rendered"), "{inputs:?}: {err}");
+        png_rgba(png)
+    };
+    let together = draw(&[&las, &laz], &dir.path().join("t.png"), &[]);
+    let from_store = draw(&[&merged], &dir.path().join("m.png"), &["--progressive"]);
+    // simple.las's bounds hold autzen_trim's: the default camera frames both the same way.
+    let alone = draw(&[&las], &dir.path().join("a.png"), &[]);
+    assert!(lit(&together) > lit(&alone), "both inputs are drawn");
+    let same = together
+        .chunks_exact(4)
+        .zip(from_store.chunks_exact(4))
+        .filter(|(a, b)| a == b)
+        .count();
+    assert!(
+        same * 1000 >= 998 * 240 * 160,
+        "{same} of {} pixels equal",
+        240 * 160
+    );
+    // A store among several inputs is read as a point file; in-core rasterizers take them too.
+    let hqs = draw(
+        &[&las, &merged],
+        &dir.path().join("h.png"),
+        &["--raster", "hqs"],
+    );
+    assert!(lit(&hqs) > 500);
+    usage_fails(
+        &[
+            "render",
+            s(&las),
+            s(&merged),
+            "-o",
+            "x.png",
+            "--bucket",
+            "1M",
+        ],
+        &["--bucket", "several inputs"],
+    );
+}

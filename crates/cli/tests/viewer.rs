@@ -94,7 +94,7 @@ fn pixels(path: &Path) -> (u32, u32, Vec<u8>) {
 
 /// Renders `input` with `extra` arguments both ways and asserts identical pixels.
 fn assert_view_matches_render(x: &Xvfb, input: &Path, extra: &[&str]) {
-    assert_view_matches_render_with(x, input, extra, &[], 0);
+    assert_view_matches_render_with(x, &[input], extra, &[], 0);
 }
 
 /// The demo scene both ways (no INPUT).
@@ -117,7 +117,7 @@ fn assert_view_matches_render_demo(x: &Xvfb, extra: &[&str]) {
 /// most `tolerated` differing pixels.
 fn assert_view_matches_render_with(
     x: &Xvfb,
-    input: &Path,
+    inputs: &[&Path],
     extra: &[&str],
     view_only: &[&str],
     tolerated: usize,
@@ -126,13 +126,16 @@ fn assert_view_matches_render_with(
     let viewed = dir.path().join("view.png");
     let rendered = dir.path().join("render.png");
     let size = ["--width", "480", "--height", "360"];
-    let mut view_args = vec![s(input), "--frames", "3", "--screenshot", s(&viewed)];
+    let mut view_args: Vec<&str> = inputs.iter().map(|p| s(p)).collect();
+    view_args.extend_from_slice(&["--frames", "3", "--screenshot", s(&viewed)]);
     view_args.extend_from_slice(&size);
     view_args.extend_from_slice(extra);
     view_args.extend_from_slice(view_only);
     let err = x.view(&view_args);
     assert!(err.contains("viewed"), "{err}");
-    let mut render_args = vec!["render", s(input), "-o", s(&rendered)];
+    let mut render_args = vec!["render"];
+    render_args.extend(inputs.iter().map(|p| s(p)));
+    render_args.extend_from_slice(&["-o", s(&rendered)]);
     render_args.extend_from_slice(&size);
     render_args.extend_from_slice(extra);
     ok(&render_args);
@@ -183,6 +186,12 @@ fn viewer_window_matches_render_of_the_same_camera() {
         &["--raster", "hw-points", "--color", "classification"],
     );
     assert_view_matches_render_demo(&x, &["--demo-points", "60000", "--view", "closeup"]);
+    // Several inputs in one frame: a LAZ file with a store of another file.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = dir.path().join("simple.pointlet");
+    ok(&["convert", s(&data("simple.las")), "-o", s(&store)]);
+    let inputs = [laz.as_path(), store.as_path()];
+    assert_view_matches_render_with(&x, &inputs, &["--color", "classification"], &[], 0);
 }
 
 #[test]
@@ -261,15 +270,15 @@ fn viewer_of_a_store_converges_to_the_render_of_it() {
     ok(&["convert", s(&data("autzen_trim.laz")), "-o", s(&store)]);
     // Small budgets: the store is streamed through the virtualized scene, not held whole.
     let budgets = ["--vram-budget", "96MiB", "--ram-budget", "16MiB"];
-    assert_view_matches_render_with(&x, &store, &[], &budgets, 0);
-    assert_view_matches_render_with(&x, &store, &["--color", "classification"], &budgets, 0);
+    assert_view_matches_render_with(&x, &[&store], &[], &budgets, 0);
+    assert_view_matches_render_with(&x, &[&store], &["--color", "classification"], &budgets, 0);
     // HQS converges like the others (a still view redraws every point up to full detail). It
     // blends the points within 1 % of the closest depth, so last-bit rounding decides points at
     // that border: the virtualized scene's pages have other origins than `render`'s (positions
     // relative to them round differently in f32), and its camera is fitted to the store
     // header's bounds (637179.22) where `render` fits it to the dequantized points
     // (637179.2200000001). 1 pixel of 172 800 differs here; closest-point images are exact.
-    assert_view_matches_render_with(&x, &store, &["--raster", "hqs"], &budgets, 20);
+    assert_view_matches_render_with(&x, &[&store], &["--raster", "hqs"], &budgets, 20);
     // A store of one pointlet (fewer points than a page) converges too.
     let las = dir.path().join("few.las");
     let few = dir.path().join("few.pointlet");

@@ -4,6 +4,7 @@
 //! and hands the uploads to the render thread, and the GPU draws what is resident. Only changes
 //! cost work; the render thread waits neither for the disk nor for the residency step.
 
+mod datasets;
 pub mod progressive;
 mod progressive_scene;
 mod remote_tiles;
@@ -13,6 +14,7 @@ mod source;
 mod step;
 mod store_points;
 
+pub use datasets::{inputs_name, open_inputs, Datasets};
 pub use progressive_scene::{
     FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene, SLOT_BYTES,
 };

@@ -219,7 +219,9 @@ struct Job {
 /// A point file loading into a shuffled buffer; see the module documentation. Dropping it
 /// stops the load thread (after the batch it is decoding).
 pub struct ProgressiveLoad {
+    /// The input's path, or several inputs' joined ([`crate::inputs_name`]).
     path: PathBuf,
+    inputs: Vec<PathBuf>,
     layout: PointLayout,
     extras: ExtraAttributes,
     /// What the reader noted about the file (for `note:` lines).
@@ -245,8 +247,15 @@ impl ProgressiveLoad {
     /// Opens `path` and starts its load thread. Errors here (a missing file, a bad header, a
     /// colouring the file cannot give) mean nothing was loaded.
     pub fn start(path: &Path, config: LoadConfig) -> Result<Self, EngineError> {
-        let reader =
-            crate::open_points(path, &config.read).map_err(|e| EngineError::Read(e.to_string()))?;
+        Self::start_many(&[path.to_path_buf()], config)
+    }
+
+    /// [`start`](Self::start) for several inputs drawn as one scene ([`crate::Datasets`]).
+    pub fn start_many(inputs: &[PathBuf], config: LoadConfig) -> Result<Self, EngineError> {
+        let reader = crate::open_inputs(inputs, &config.read)
+            .map_err(|e| EngineError::Read(e.to_string()))?;
+        let name = crate::inputs_name(inputs);
+        let path = name.as_path();
         let meta = reader.meta();
         let asked = config.scale.map(|s| s.mode).or(config.color);
         if let Some(mode) = asked.filter(|m| !m.available_in(&meta.layout)) {
@@ -277,13 +286,12 @@ impl ProgressiveLoad {
             (meta.bounds.min, [meta.bounds.min[2], meta.bounds.max[2]])
         };
         // Remote tilesets have no one size: their MB/s is not reported.
-        let file_bytes = if pointlet_store::is_remote(path) {
-            0
-        } else {
-            std::fs::metadata(path)
-                .map_err(|e| EngineError::Read(format!("{}: {e}", path.display())))?
-                .len()
-        };
+        let mut file_bytes = 0;
+        for input in inputs.iter().filter(|p| !pointlet_store::is_remote(p)) {
+            file_bytes += std::fs::metadata(input)
+                .map_err(|e| EngineError::Read(format!("{}: {e}", input.display())))?
+                .len();
+        }
         let shared = Arc::new(Shared::default());
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
         let job_extras = extras.clone();
@@ -310,6 +318,7 @@ impl ProgressiveLoad {
             .map_err(|e| EngineError::Read(format!("starting the load thread: {e}")))?;
         Ok(Self {
             path: path.to_path_buf(),
+            inputs: inputs.to_vec(),
             layout,
             extras: job_extras,
             notes,
@@ -332,6 +341,11 @@ impl ProgressiveLoad {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// The files (or stores, or tilesets) loading, in order.
+    pub fn inputs(&self) -> &[PathBuf] {
+        &self.inputs
     }
 
     /// What the reader noted about the file.

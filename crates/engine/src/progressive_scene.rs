@@ -15,7 +15,7 @@ use pointlet_gpu::progressive::{
 use pointlet_gpu::shuffle::{ShufflePass, ShuffledContents};
 use pointlet_gpu::{GpuContext, RasterVariant, RenderSettings, RenderTarget, SplatSettings};
 use std::collections::VecDeque;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -168,7 +168,16 @@ impl ProgressiveScene {
         path: &Path,
         config: ProgressiveConfig,
     ) -> Result<Self, EngineError> {
-        let load = Self::start_load(path, &config)?;
+        Self::open_many(ctx, &[path.to_path_buf()], config)
+    }
+
+    /// [`open`](Self::open) for several inputs drawn together in one coordinate frame.
+    pub fn open_many(
+        ctx: &GpuContext,
+        inputs: &[PathBuf],
+        config: ProgressiveConfig,
+    ) -> Result<Self, EngineError> {
+        let load = Self::start_load_many(inputs, &config)?;
         Self::with_load(ctx, load, config)
     }
 
@@ -178,13 +187,21 @@ impl ProgressiveScene {
         path: &Path,
         config: &ProgressiveConfig,
     ) -> Result<ProgressiveLoad, EngineError> {
+        Self::start_load_many(&[path.to_path_buf()], config)
+    }
+
+    /// [`start_load`](Self::start_load) for several inputs.
+    pub fn start_load_many(
+        inputs: &[PathBuf],
+        config: &ProgressiveConfig,
+    ) -> Result<ProgressiveLoad, EngineError> {
         let budget_slots = (config.vram_budget / SLOT_BYTES).max(1);
         let load = LoadConfig {
             max_slots: config.load.max_slots.min(budget_slots),
             colors_only: false,
             ..config.load.clone()
         };
-        ProgressiveLoad::start(path, load)
+        ProgressiveLoad::start_many(inputs, load)
     }
 
     /// The scene of a load begun by [`start_load`](Self::start_load) with the same `config`.
@@ -229,6 +246,23 @@ impl ProgressiveScene {
 
     pub fn path(&self) -> &Path {
         self.load.path()
+    }
+
+    /// The inputs drawn, in order.
+    pub fn inputs(&self) -> &[PathBuf] {
+        self.load.inputs()
+    }
+
+    /// Draws `inputs` instead, loading them from the start into a buffer sized for them; the
+    /// colouring and the passes stay.
+    pub fn reopen(&mut self, ctx: &GpuContext, inputs: &[PathBuf]) -> Result<(), EngineError> {
+        let mut config = self.config.clone();
+        // The VRAM budget sizes the new buffer, not the old one's slot count.
+        config.load.max_slots = LoadConfig::default().max_slots;
+        config.load.colors_only = false;
+        config.load.color = self.asked_mode();
+        *self = Self::open_many(ctx, inputs, config)?;
+        Ok(())
     }
 
     /// What the reader noted about the file.
@@ -355,7 +389,7 @@ impl ProgressiveScene {
             }
             load.colors_only = true;
         }
-        let next = ProgressiveLoad::start(self.load.path(), load.clone())?;
+        let next = ProgressiveLoad::start_many(self.load.inputs(), load.clone())?;
         self.load = next;
         self.config.load.color = mode;
         self.config.load.scale = scale;

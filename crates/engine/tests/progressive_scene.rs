@@ -673,3 +673,67 @@ fn recolouring_a_loaded_file_rewrites_the_colours_only() {
     assert_eq!(scene.color().unwrap().scale, edited);
     check(&scene, &edited);
 }
+
+/// The terrain's points whose x is below (`west`) or from 32 on.
+fn half(batch: &PointBatch, west: bool) -> PointBatch {
+    let mut out = PointBatch::with_capacity(batch.layout, batch.len() / 2);
+    for i in (0..batch.len()).filter(|i| (batch.xyz[*i][0] < 32.0) == west) {
+        out.push_from(batch, i);
+    }
+    out
+}
+
+#[test]
+fn several_inputs_converge_to_drawing_all_their_points_and_reopen_with_fewer() {
+    let ctx = context();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let all = terrain();
+    let (west, east) = (half(&all, true), half(&all, false));
+    let whole = d.join("whole.las");
+    write_las(&whole, &all, false);
+    let west_laz = d.join("west.laz");
+    write_las(&west_laz, &west, true);
+    let west_las = d.join("west.las");
+    write_las(&west_las, &west, false);
+    let east_las = d.join("east.las");
+    write_las(&east_las, &east, false);
+    let east_store = d.join("east.pointlet");
+    write_store(&east_store, &east_las);
+    let east_xyz = d.join("east.xyz");
+    write_xyz(&east_xyz, &east);
+    let variant = RasterVariant::AtomicMin;
+    let mut cfg = config(variant, 7_777);
+    cfg.load.color = Some(ColorMode::Elevation);
+    // Parts from a LAZ file and a store; then a LAS file with a text file read front to back.
+    for inputs in [
+        vec![west_laz.clone(), east_store.clone()],
+        vec![west_las.clone(), east_xyz.clone()],
+    ] {
+        let mut scene = ProgressiveScene::open_many(&ctx, &inputs, cfg.clone()).unwrap();
+        assert_eq!(scene.points(), N as u64);
+        assert_eq!(scene.inputs(), &inputs[..]);
+        assert!(scene.path().display().to_string().contains(" + "));
+        let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+        converge(&ctx, &mut scene, &camera(), &mut target);
+        let got = target.read_rgba(&ctx).unwrap();
+        let want = static_image(&ctx, &whole, &scene, variant, &camera());
+        let differ = differing(&got, &want.rgba);
+        assert!(
+            differ == 0 && target.read_depth(&ctx).unwrap() == want.depth,
+            "{inputs:?}: {differ} pixels differ from drawing the whole terrain"
+        );
+        // Hiding one input: the other alone, exactly.
+        scene.reopen(&ctx, &inputs[..1]).unwrap();
+        assert_eq!(scene.points(), west.len() as u64);
+        converge(&ctx, &mut scene, &camera(), &mut target);
+        let got = target.read_rgba(&ctx).unwrap();
+        let want = static_image(&ctx, &west_las, &scene, variant, &camera());
+        assert_eq!(
+            differing(&got, &want.rgba),
+            0,
+            "{inputs:?}: the west half alone"
+        );
+        assert!(lit(&got) < lit(&static_image(&ctx, &whole, &scene, variant, &camera()).rgba));
+    }
+}

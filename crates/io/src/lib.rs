@@ -73,7 +73,7 @@ impl IoError {
 }
 
 /// A streaming source of points.
-pub trait PointReader: Send {
+pub trait PointReader: Send + Sync {
     /// The file being read (or a descriptive pseudo-path for generated data).
     fn path(&self) -> &Path;
     /// What the header says; available before the first batch.

@@ -52,17 +52,18 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
     // window is open); for the others they are read before it opens.
     let mut loading = None;
     let memory = match &config.input {
-        Input::File { path, read } if config.settings.variant.accumulates() => {
+        Input::Files { paths, read } if config.settings.variant.accumulates() => {
             // Loading starts now; the window and GPU open meanwhile.
             let progressive = progressive_config(&config, read, config.settings.variant);
-            let load = ProgressiveScene::start_load(path, &progressive)
+            let load = ProgressiveScene::start_load_many(paths, &progressive)
                 .map_err(|e| ViewerError::Load(e.to_string()))?;
             loading = Some((load, progressive));
             None
         }
-        Input::File { path, read } => {
-            Some(MemoryData::load(Source::File { path, read }, config.order)?)
-        }
+        Input::Files { paths, read } => Some(MemoryData::load(
+            Source::Files { paths, read },
+            config.order,
+        )?),
         Input::Demo { points, seed } => Some(MemoryData::load(
             Source::Demo {
                 points: *points,
@@ -223,7 +224,7 @@ impl App {
                 .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?;
                 (Content::Store(Box::new(scene)), color)
             }
-            (Input::File { path, .. }, None) => {
+            (Input::Files { .. }, None) => {
                 let Some((load, mut config)) = self.loading.take() else {
                     return Err(ViewerError::Load("the file was not opened".into()));
                 };
@@ -236,8 +237,13 @@ impl App {
                 // The engine's errors name the file already.
                 let scene = ProgressiveScene::with_load(&ctx, load, config)
                     .map_err(|e| ViewerError::Load(e.to_string()))?;
+                let path = scene.path().to_path_buf();
                 for n in scene.notes() {
-                    eprintln!("note: {}: {n}", path.display());
+                    match scene.inputs() {
+                        [_] => eprintln!("note: {}: {n}", path.display()),
+                        // Several inputs' notes name their file.
+                        _ => eprintln!("note: {n}"),
+                    }
                 }
                 // The load thread picks the default colouring from its first sample.
                 let color = match scene.color_within(std::time::Duration::from_secs(10)) {

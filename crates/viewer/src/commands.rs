@@ -28,6 +28,8 @@ pub enum Action {
     Slower,
     SelectColor(ColorMode),
     ResetColorScale,
+    /// Shows (true) or hides input i of several.
+    ShowInput(usize, bool),
 }
 
 /// Tool the primary click uses.
@@ -198,6 +200,11 @@ pub fn perform(
             let fitted = view.content.fitted(view.colors.mode())?;
             view.colors.select(fitted);
         }
+        Action::ShowInput(i, shown) => match view.set_visible(i, shown) {
+            // Hiding the last input is refused in the status line, not as a failure.
+            Err(ViewerError::Config(m)) => ui.say(m, now),
+            other => other?,
+        },
     }
     Ok(())
 }

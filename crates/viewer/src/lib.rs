@@ -47,10 +47,11 @@ pub enum ViewerError {
 pub enum Input {
     /// A `.pointlet` store, drawn through the virtualized scene.
     Store(PathBuf),
-    /// Any point file: drawn while it loads by the closest-point rasterizers, read whole into
-    /// memory for the others.
-    File {
-        path: PathBuf,
+    /// Point files (or stores or tilesets read as point files), several drawn together in one
+    /// coordinate frame: drawn while they load by the closest-point rasterizers, read whole
+    /// into memory for the others.
+    Files {
+        paths: Vec<PathBuf>,
         read: pointlet_io::ReadOptions,
     },
     /// The built-in synthetic scene.

@@ -13,7 +13,7 @@ use pointlet_core::{Aabb, PointBatch, PointLayout};
 use pointlet_gpu::PointSet;
 use pointlet_io::PointReader;
 use rayon::prelude::*;
-use std::path::Path;
+use std::path::PathBuf;
 
 /// Points read per batch (and the size of the sample that colour ranges are fitted on).
 const BATCH: usize = 1 << 20;
@@ -25,8 +25,8 @@ const MAX_RESERVE: u64 = 1 << 28;
 /// Where in-memory points come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Source<'a> {
-    File {
-        path: &'a Path,
+    Files {
+        paths: &'a [PathBuf],
         read: &'a pointlet_io::ReadOptions,
     },
     /// The built-in synthetic scene.
@@ -52,10 +52,10 @@ pub struct MemoryData {
 impl MemoryData {
     pub fn load(source: Source<'_>, order: VertexOrder) -> Result<Self, ViewerError> {
         let (reader, name): (Box<dyn PointReader>, String) = match source {
-            Source::File { path, read } => (
-                pointlet_engine::open_points(path, read)
+            Source::Files { paths, read } => (
+                pointlet_engine::open_inputs(paths, read)
                     .map_err(|e| ViewerError::Load(e.to_string()))?,
-                path.display().to_string(),
+                pointlet_engine::inputs_name(paths).display().to_string(),
             ),
             Source::Demo { points, seed } => {
                 let generator = pointlet_io::generate::SceneGenerator::new(
@@ -250,15 +250,15 @@ mod tests {
 
     #[test]
     fn the_default_colouring_is_chosen_on_the_data() {
-        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata");
+        let testdata = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../testdata");
         for (file, mode) in [
             ("simple.las", ColorMode::Rgb),
             ("test1_4.las", ColorMode::Intensity), // no RGB
             ("plane.laz", ColorMode::Intensity),   // RGB all zero
         ] {
             let path = testdata.join(file);
-            let source = Source::File {
-                path: &path,
+            let source = Source::Files {
+                paths: std::slice::from_ref(&path),
                 read: &Default::default(),
             };
             let d = MemoryData::load(source, VertexOrder::Original).expect("test data");
@@ -269,8 +269,8 @@ mod tests {
     #[test]
     fn missing_file_is_an_error_naming_it() {
         let err = MemoryData::load(
-            Source::File {
-                path: Path::new("/nonexistent/x.laz"),
+            Source::Files {
+                paths: &[PathBuf::from("/nonexistent/x.laz")],
                 read: &Default::default(),
             },
             VertexOrder::Original,

@@ -47,6 +47,7 @@ pub fn draw(root: &mut egui::Ui, view: &mut View, ui: &mut UiState, now: f64) ->
             .show(root, |p| {
                 egui::ScrollArea::vertical().show(p, |p| {
                     header(p, view);
+                    datasets(p, view, &mut actions);
                     navigation(p, view, &mut actions);
                     coloring(p, view, &mut actions);
                     rendering(p, view);
@@ -97,6 +98,30 @@ fn header(p: &mut egui::Ui, view: &View) {
         h.label("F1 / ? shows the keys");
     });
     p.separator();
+}
+
+/// Several inputs: one visibility toggle each.
+fn datasets(p: &mut egui::Ui, view: &View, actions: &mut Vec<Action>) {
+    if view.datasets.is_empty() {
+        return;
+    }
+    egui::CollapsingHeader::new(format!("Inputs ({})", view.datasets.len()))
+        .default_open(true)
+        .show(p, |s| {
+            for (i, (path, shown)) in view.datasets.iter().enumerate() {
+                let name = path.file_name().map_or_else(
+                    || path.display().to_string(),
+                    |n| n.to_string_lossy().into(),
+                );
+                let mut on = *shown;
+                if s.checkbox(&mut on, name)
+                    .on_hover_text(path.display().to_string())
+                    .changed()
+                {
+                    actions.push(Action::ShowInput(i, on));
+                }
+            }
+        });
 }
 
 fn navigation(p: &mut egui::Ui, view: &mut View, actions: &mut Vec<Action>) {

@@ -11,6 +11,7 @@ use crate::ViewerError;
 use pointlet_core::color::ColorScale;
 use pointlet_core::Camera;
 use pointlet_gpu::{GpuContext, RenderSettings, RenderTarget, Renderer};
+use std::path::PathBuf;
 
 /// Seconds between two keyframes of a recorded camera path.
 const RECORD_INTERVAL: f64 = 0.1;
@@ -29,6 +30,8 @@ pub struct View {
     pub stats: FrameStats,
     /// What the last frame drew.
     pub drawn: Drawn,
+    /// Several inputs drawn together: each with whether it is shown (empty for one input).
+    pub datasets: Vec<(PathBuf, bool)>,
     /// Camera and settings of the last frame: an unchanged view of in-memory data needs no
     /// new frame.
     last_view: Option<(Camera, RenderSettings, (u32, u32))>,
@@ -49,7 +52,14 @@ impl View {
         let renderer = Renderer::new(&ctx);
         let nav = Navigator::new(camera, content.bounds());
         let colors = content.color_state(scale);
+        let datasets = match &content {
+            crate::content::Content::Progressive(p) if p.inputs().len() > 1 => {
+                p.inputs().iter().map(|i| (i.clone(), true)).collect()
+            }
+            _ => Vec::new(),
+        };
         Ok(Self {
+            datasets,
             ctx,
             renderer,
             target,
@@ -137,6 +147,36 @@ impl View {
                 .map_err(|e| ViewerError::Gpu(e.to_string()))?;
         }
         Ok(&self.drawn)
+    }
+
+    /// Shows or hides input `i` of several: the shown ones load again from the start (the
+    /// camera stays). The last shown input cannot be hidden.
+    pub fn set_visible(&mut self, i: usize, visible: bool) -> Result<(), ViewerError> {
+        let Some(was) = self.datasets.get(i).map(|d| d.1) else {
+            return Ok(());
+        };
+        if was == visible {
+            return Ok(());
+        }
+        self.datasets[i].1 = visible;
+        let shown: Vec<PathBuf> = self
+            .datasets
+            .iter()
+            .filter(|d| d.1)
+            .map(|d| d.0.clone())
+            .collect();
+        if shown.is_empty() {
+            self.datasets[i].1 = true;
+            return Err(ViewerError::Config(
+                "one input at least stays shown".to_string(),
+            ));
+        }
+        if let crate::content::Content::Progressive(p) = &mut self.content {
+            p.reopen(&self.ctx, &shown)
+                .map_err(|e| ViewerError::Load(e.to_string()))?;
+        }
+        self.last_view = None;
+        Ok(())
     }
 
     /// The exact coordinates of the point under `pixel` (None: nothing there).

@@ -168,3 +168,77 @@ fn actions_bookmark_record_and_move_the_camera() {
     perform(Action::GoBookmark(7), &mut v, &mut ui, 1.8).expect("no bookmark 8");
     assert!(ui.status(1.9).is_some_and(|m| m.contains("no bookmark 8")));
 }
+
+#[test]
+fn inputs_are_shown_and_hidden_one_by_one() {
+    use pointlet_engine::{ProgressiveConfig, ProgressiveScene};
+    let ctx = GpuContext::new(&AdapterRequest::default()).expect("a GPU adapter (lavapipe)");
+    let dir = tempfile::tempdir().expect("tempdir");
+    // Two LAS files: the cloud's first two points and its last two.
+    let all = cloud();
+    let mut paths = Vec::new();
+    for (k, range) in [0..2, 2..4].into_iter().enumerate() {
+        let mut part = PointBatch::new(all.layout);
+        range.for_each(|i| part.push_from(&all, i));
+        let path = dir.path().join(format!("part{k}.las"));
+        let mut w = pointlet_io::writer::LasWriter::create(
+            &path,
+            pointlet_io::writer::LasWriterConfig {
+                quantization: pointlet_core::Quantization {
+                    scale: [0.001; 3],
+                    offset: ORIGIN,
+                },
+                point_format: 2,
+                layout: part.layout,
+                vlrs: Vec::new(),
+                fields: Default::default(),
+                compress: false,
+            },
+        )
+        .expect("create");
+        w.write_batch(&part).expect("write");
+        w.finish().expect("finish");
+        paths.push(path);
+    }
+    let variant = RasterVariant::ReduceEarlyZ.fallback(&ctx.caps);
+    let config = ProgressiveConfig {
+        variant,
+        ..Default::default()
+    };
+    let scene = ProgressiveScene::open_many(&ctx, &paths, config).expect("open both");
+    let scale = scene
+        .color_within(std::time::Duration::from_secs(10))
+        .expect("a colouring")
+        .scale;
+    let content = Content::Progressive(Box::new(scene));
+    let camera = Camera {
+        eye: [ORIGIN[0] + 2.0, ORIGIN[1] - 30.0, ORIGIN[2] + 40.0],
+        target: ORIGIN,
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 60.0,
+        near: 0.1,
+        far: 1000.0,
+    };
+    let settings = RenderSettings {
+        variant,
+        ..Default::default()
+    };
+    let mut v = View::new(ctx, content, camera, settings, scale, SIZE).expect("view");
+    let names: Vec<_> = v.datasets.iter().map(|d| (d.0.clone(), d.1)).collect();
+    assert_eq!(
+        names,
+        vec![(paths[0].clone(), true), (paths[1].clone(), true)]
+    );
+    assert_eq!(v.content.points(), 4);
+    let mut ui = UiState::default();
+    perform(Action::ShowInput(1, false), &mut v, &mut ui, 0.0).expect("hide");
+    assert_eq!(v.content.points(), 2);
+    assert!(!v.datasets[1].1);
+    // The last shown input stays: a message, not an error.
+    perform(Action::ShowInput(0, false), &mut v, &mut ui, 0.1).expect("refused");
+    assert!(v.datasets[0].1 && v.content.points() == 2);
+    assert!(ui.status(0.2).is_some_and(|m| m.contains("stays shown")));
+    perform(Action::ShowInput(1, true), &mut v, &mut ui, 0.3).expect("show");
+    assert_eq!(v.content.points(), 4);
+    v.frame(0.4, 0.1).expect("a frame of both");
+}
