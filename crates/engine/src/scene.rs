@@ -20,6 +20,8 @@ use std::sync::Arc;
 
 /// Pointlets one loader reads at once from a remote store.
 const REMOTE_LOAD_BATCH: usize = 64;
+/// Loader threads of a remote store per loader of a local one.
+const REMOTE_LOADERS_PER_LOADER: usize = 4;
 
 #[derive(Clone, Debug)]
 pub struct SceneConfig {
@@ -200,18 +202,20 @@ impl VirtualScene {
         let paged = PagedCloud::new(ctx, descs.clone(), config.encoding, config.page_size, slots)?;
         let slots = paged.slots;
         let source = StoreSource::new(store.clone(), config.color, config.encoding)?;
+        let remote = pointlet_store::is_remote(store.path());
         let cache = RamCache::new(
             source,
             CacheConfig {
                 ram_budget: config.ram_budget,
-                loaders: config.loaders.max(1),
-                // Over the network each read waits a round trip: a loader fetches many
-                // pointlets' ranges at once (joined, several requests in flight).
-                batch: if pointlet_store::is_remote(store.path()) {
-                    REMOTE_LOAD_BATCH
+                // Over the network each read waits a round trip: more loaders wait at once, and
+                // each fetches many pointlets' ranges at once (joined, several requests in
+                // flight). Waiting threads cost no CPU.
+                loaders: if remote {
+                    config.loaders.max(1) * REMOTE_LOADERS_PER_LOADER
                 } else {
-                    1
+                    config.loaders.max(1)
                 },
+                batch: if remote { REMOTE_LOAD_BATCH } else { 1 },
                 ..Default::default()
             },
         )
