@@ -2,9 +2,11 @@
 //! that everything that draws or converts point files (the progressive renderer, `render`,
 //! `view`, `bench`, `convert`) takes a `tileset.json` too. Full detail follows refinement: a
 //! tile's content counts when the tile is a leaf or refines by `ADD`; a `REPLACE` parent's
-//! content is a preview its children replace. Opening decodes every such tile once for the
-//! exact count and bounds (as PLY and text files get a pre-pass); streaming by screen-space
-//! error is a different path. Content this crate cannot decode (Draco, meshes) is skipped with
+//! content is a preview its children replace. Opening decodes every such tile once, on every
+//! core, for the exact count and bounds (as PLY and text files get a pre-pass), keeping the
+//! decoded contents while they fit [`CACHE_BYTES`] so that reading them does not fetch them
+//! again; each tile is a part that the progressive loader's threads decode at once. Streaming
+//! by screen-space error is a different path. Content this crate cannot decode (Draco, meshes) is skipped with
 //! one note naming the tile; content that is missing or broken is an error naming the tile.
 
 use crate::content::TilePoints;
@@ -12,7 +14,14 @@ use crate::{LocalSource, Refine, TileSource, TilesError, Tileset};
 use pointlet_core::{Aabb, PointBatch, PointLayout, SourceMeta};
 use pointlet_io::scale::fit_quantization;
 use pointlet_io::{IoError, PointReader};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+/// Decoded tile contents kept from the opening pass for the reads after it (beyond this, the
+/// rest are decoded again when read).
+pub const CACHE_BYTES: u64 = 512 << 20;
 
 /// Decimals of the grid the points are stored on (millimetres): finer than the float32
 /// positions of tile content carry far from their tile's origin.
@@ -47,13 +56,65 @@ pub struct TilesetPoints {
     tileset: Tileset,
     source: Box<dyn TileSource>,
     meta: SourceMeta,
-    /// Tiles still to read, in order.
+    /// Tiles with points, in order, and the points of each.
     tiles: Vec<usize>,
+    sizes: Vec<u64>,
+    /// Contents decoded by the opening pass, taken by the first read of their tile.
+    cache: Vec<Mutex<Option<Vec<TilePoints>>>>,
     next_tile: usize,
     /// The contents of the tile being read, and the next point of them.
     pending: Vec<TilePoints>,
     cursor: (usize, usize),
     notes: Vec<String>,
+}
+
+/// What the opening pass keeps of one tile.
+struct TileSummary {
+    tile: usize,
+    points: u64,
+    bounds: Aabb,
+    has_color: bool,
+    /// Single-component attributes that are neither intensity nor classification.
+    undrawn: Vec<String>,
+    notes: Vec<String>,
+    contents: Option<Vec<TilePoints>>,
+}
+
+impl TileSummary {
+    fn of(tile: usize, contents: Vec<TilePoints>, cached: &AtomicU64, limit: u64) -> Self {
+        let mut s = TileSummary {
+            tile,
+            points: 0,
+            bounds: Aabb::EMPTY,
+            has_color: false,
+            undrawn: Vec::new(),
+            notes: Vec::new(),
+            contents: None,
+        };
+        let mut bytes = 0u64;
+        for c in &contents {
+            s.points += c.len() as u64;
+            for p in &c.positions {
+                s.bounds.grow(*p);
+            }
+            s.has_color |= c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]);
+            for a in c.attributes.iter().filter(|a| a.components == 1) {
+                let drawn = is_intensity(&a.name) || is_classification(&a.name);
+                if !drawn && !s.undrawn.contains(&a.name) {
+                    s.undrawn.push(a.name.clone());
+                }
+            }
+            s.notes
+                .extend(c.notes.iter().map(|n| format!("{}: {n}", c.uri)));
+            bytes += c.len() as u64 * (28 + 8 * c.attributes.len() as u64);
+        }
+        if cached.fetch_add(bytes, Ordering::Relaxed) + bytes <= limit {
+            s.contents = Some(contents);
+        } else {
+            cached.fetch_sub(bytes, Ordering::Relaxed);
+        }
+        s
+    }
 }
 
 /// Opens the tileset file at `path` for reading its points.
@@ -93,39 +154,55 @@ impl TilesetPoints {
         tileset: Tileset,
         source: Box<dyn TileSource>,
     ) -> Result<Self, IoError> {
+        Self::with_cache(path, tileset, source, CACHE_BYTES)
+    }
+
+    /// [`new`](Self::new) keeping at most `cache_bytes` of decoded contents from the opening
+    /// pass.
+    pub fn with_cache(
+        path: &Path,
+        tileset: Tileset,
+        source: Box<dyn TileSource>,
+        cache_bytes: u64,
+    ) -> Result<Self, IoError> {
+        // Every tile decoded at once; errors come back in tile order.
+        let cached = AtomicU64::new(0);
+        let decoded: Vec<Result<TileSummary, TilesError>> = full_detail_tiles(&tileset)
+            .into_par_iter()
+            .map(|t| {
+                let contents = tileset.read_tile(source.as_ref(), t)?;
+                Ok(TileSummary::of(t, contents, &cached, cache_bytes))
+            })
+            .collect();
         let mut notes = Vec::new();
         let mut bounds = Aabb::EMPTY;
         let mut count = 0u64;
-        let mut kept = Vec::new();
+        let (mut kept, mut sizes, mut cache) = (Vec::new(), Vec::new(), Vec::new());
         let mut has_color = false;
         let mut skipped_attributes: Vec<String> = Vec::new();
-        for t in full_detail_tiles(&tileset) {
-            let contents = match tileset.read_tile(source.as_ref(), t) {
-                Ok(c) => c,
+        for d in decoded {
+            let s = match d {
+                Ok(s) => s,
                 Err(e) if matches!(e.root_cause(), TilesError::Unsupported { .. }) => {
                     notes.push(format!("skipped: {e}"));
                     continue;
                 }
                 Err(e) => return Err(named(path, e)),
             };
-            for c in &contents {
-                count += c.len() as u64;
-                for p in &c.positions {
-                    bounds.grow(*p);
+            count += s.points;
+            bounds = bounds.union(&s.bounds);
+            has_color |= s.has_color;
+            for name in s.undrawn {
+                if !skipped_attributes.contains(&name) {
+                    skipped_attributes.push(name);
                 }
-                has_color |= c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]);
-                for a in &c.attributes {
-                    if a.components != 1 {
-                        continue;
-                    }
-                    let drawn = is_intensity(&a.name) || is_classification(&a.name);
-                    if !drawn && !skipped_attributes.contains(&a.name) {
-                        skipped_attributes.push(a.name.clone());
-                    }
-                }
-                notes.extend(c.notes.iter().map(|n| format!("{}: {n}", c.uri)));
             }
-            kept.push(t);
+            notes.extend(s.notes);
+            if s.points > 0 {
+                kept.push(s.tile);
+                sizes.push(s.points);
+                cache.push(Mutex::new(s.contents));
+            }
         }
         if count == 0 {
             return Err(IoError::no_points(
@@ -172,11 +249,31 @@ impl TilesetPoints {
             source,
             meta,
             tiles: kept,
+            sizes,
+            cache,
             next_tile: 0,
             pending: Vec::new(),
             cursor: (0, 0),
             notes,
         })
+    }
+
+    /// The contents of the `k`-th tile with points: the opening pass's, or decoded again.
+    fn contents(&self, k: usize) -> Result<Vec<TilePoints>, IoError> {
+        let kept = self
+            .cache
+            .get(k)
+            .and_then(|c| c.lock().ok().and_then(|mut c| c.take()));
+        if let Some(contents) = kept {
+            return Ok(contents);
+        }
+        let tile = *self
+            .tiles
+            .get(k)
+            .ok_or_else(|| IoError::invalid(&self.path, format!("there is no part {k}")))?;
+        self.tileset
+            .read_tile(self.source.as_ref(), tile)
+            .map_err(|e| named(&self.path, e))
     }
 
     /// Appends points `range` of `content` to `batch`, every column filled.
@@ -227,6 +324,10 @@ impl PointReader for TilesetPoints {
         &self.notes
     }
 
+    fn parted(&self) -> Option<&dyn pointlet_core::PartedSource> {
+        Some(self)
+    }
+
     fn read_batch(&mut self, max: usize) -> Result<Option<PointBatch>, IoError> {
         let mut batch = PointBatch {
             layout: self.meta.layout,
@@ -235,14 +336,11 @@ impl PointReader for TilesetPoints {
         while batch.xyz.len() < max {
             let (c, p) = self.cursor;
             if c >= self.pending.len() {
-                let Some(&t) = self.tiles.get(self.next_tile) else {
+                if self.next_tile >= self.tiles.len() {
                     break;
-                };
+                }
+                self.pending = self.contents(self.next_tile)?;
                 self.next_tile += 1;
-                self.pending = self
-                    .tileset
-                    .read_tile(self.source.as_ref(), t)
-                    .map_err(|e| named(&self.path, e))?;
                 self.cursor = (0, 0);
                 continue;
             }
@@ -259,5 +357,39 @@ impl PointReader for TilesetPoints {
             return Ok(None);
         }
         Ok(Some(batch))
+    }
+}
+
+impl pointlet_core::PartedSource for TilesetPoints {
+    fn part_sizes(&self) -> &[u64] {
+        &self.sizes
+    }
+
+    fn decode_part(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        _scratch: &mut Vec<u8>,
+    ) -> Result<(), pointlet_core::parts::PartError> {
+        *out = PointBatch {
+            layout: self.meta.layout,
+            ..PointBatch::default()
+        };
+        for content in self.contents(i)? {
+            let n = content.len();
+            self.append(&content, 0..n, out);
+        }
+        if out.len() as u64 != self.sizes[i] {
+            return Err(Box::new(IoError::invalid(
+                &self.path,
+                format!(
+                    "tile {} changed while being read: {} points, {} before",
+                    self.tiles[i],
+                    out.len(),
+                    self.sizes[i]
+                ),
+            )));
+        }
+        Ok(())
     }
 }

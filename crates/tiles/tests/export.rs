@@ -550,3 +550,55 @@ fn a_non_empty_output_is_refused_unless_forced() {
         .collect();
     assert_eq!(names.len(), 2, "{names:?}");
 }
+
+/// Every point a reader gives, batch by batch or part by part, as comparable rows.
+fn reader_rows(reader: &mut pointlet_tiles::points::TilesetPoints, by_parts: bool) -> Vec<String> {
+    use pointlet_io::PointReader;
+    let row = |b: &pointlet_core::PointBatch, k: usize| {
+        format!(
+            "{:?} {:?} {} {}",
+            b.xyz[k],
+            b.rgb.get(k),
+            b.intensity[k],
+            b.classification[k]
+        )
+    };
+    let mut rows = Vec::new();
+    if by_parts {
+        let parts = reader.parted().expect("tiles are parts");
+        let (mut batch, mut scratch) = (pointlet_core::PointBatch::default(), Vec::new());
+        for i in 0..parts.part_sizes().len() {
+            parts.decode_part(i, &mut batch, &mut scratch).unwrap();
+            rows.extend((0..batch.len()).map(|k| row(&batch, k)));
+        }
+    } else {
+        while let Some(b) = reader.read_batch(3_000).unwrap() {
+            rows.extend((0..b.len()).map(|k| row(&b, k)));
+        }
+    }
+    rows
+}
+
+#[test]
+fn a_tileset_reads_the_same_from_the_opening_cache_by_parts_and_decoded_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = build_store(&testdata("autzen_trim.laz"), &dir.path().join("s.pointlet"));
+    let out = dir.path().join("tiles");
+    export_to(&store, &out, Refine::Replace, 5_000);
+    let json = out.join("tileset.json");
+    let open = |cache: u64| {
+        let (source, uri) = pointlet_tiles::LocalSource::for_file(&json);
+        let tileset = Tileset::load(&source, &uri).unwrap();
+        pointlet_tiles::points::TilesetPoints::with_cache(&json, tileset, Box::new(source), cache)
+            .unwrap()
+    };
+    let cached = reader_rows(&mut open(pointlet_tiles::points::CACHE_BYTES), false);
+    assert_eq!(cached.len() as u64, store.header().points);
+    assert_eq!(reader_rows(&mut open(0), false), cached, "decoded again");
+    assert_eq!(reader_rows(&mut open(0), true), cached, "by parts");
+    assert_eq!(
+        reader_rows(&mut open(1 << 20), true),
+        cached,
+        "partly cached"
+    );
+}
