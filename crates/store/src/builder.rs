@@ -723,6 +723,8 @@ impl StoreBuilder {
         pio::write_all_at(&file, &preamble.encode(), 0).map_err(io("writing the preamble"))?;
         // No fsync: it would wait for the disk (seconds per GB) where the page cache is done;
         // a store torn by a power loss fails its checksums instead of being read as good.
+        // Closed before the rename (wasm32 has no files: its File has no Drop).
+        #[cfg_attr(target_arch = "wasm32", allow(clippy::drop_non_drop))]
         drop(file);
         pointlet_core::cleanup::persist(&self.temp.path, &self.output).map_err(|e| {
             StoreError::io(
