@@ -29,6 +29,7 @@ mod meshopt;
 mod metadata;
 pub mod pnts;
 pub mod points;
+pub mod select;
 pub mod source;
 pub mod tileset;
 pub mod transform;
@@ -37,6 +38,7 @@ pub mod write;
 
 pub use content::{AttributeValues, ContentContext, PointAttribute, TilePoints, UpAxis};
 pub use error::TilesError;
+pub use select::{plan, screen_space_error, TilePlan, TileView, WantedTile};
 pub use source::{resolve_uri, LocalSource, TileSource};
 pub use tileset::{ContentRef, LoadLimits, Refine, Tile, Tileset, TilesetFile};
 pub use transform::Transform;
