@@ -445,9 +445,17 @@ fn load<S: PointletSource>(sh: &Shared<S>, ids: &[usize]) {
             }
         })
         .collect();
-    let results = sh.source.read_many(&requests, &mut fresh);
-    for (((i, range), data), result) in requests.into_iter().zip(fresh).zip(results) {
+    let mut results = sh.source.read_many(&requests, &mut fresh).into_iter();
+    for ((i, range), data) in requests.into_iter().zip(fresh) {
         let granted = range.end - range.start;
+        // A source that answers fewer requests than asked fails the rest.
+        let result = results.next().unwrap_or_else(|| {
+            Err(SourceError {
+                pointlet: i,
+                range: range.clone(),
+                message: "the source gave no result for this read".into(),
+            })
+        });
         match result {
             Ok(()) if data.len() == granted as usize => {
                 if let Ok(mut slot) = sh.slots[i].lock() {
