@@ -275,7 +275,18 @@ impl App {
         settings.variant = usable_variant(&ctx, &content, settings.variant);
         let presenter = Presenter::new(&ctx, surface, &caps, size, c.vsync)?;
         let max_texture = ctx.device.limits().max_texture_dimension_2d as usize;
-        let view = View::new(ctx, content, camera, settings, scale, size)?;
+        let mut view = View::new(ctx, content, camera, settings, scale, size)?;
+        if let Input::Files { paths, read } = &c.input {
+            view.list_inputs(
+                paths,
+                crate::view::Reread {
+                    read: read.clone(),
+                    order: c.order,
+                    encoding: c.encoding,
+                    page_size: c.page_size,
+                },
+            );
+        }
         let egui_ctx = egui::Context::default();
         let egui = egui_winit::State::new(
             egui_ctx.clone(),

@@ -32,9 +32,20 @@ pub struct View {
     pub drawn: Drawn,
     /// Several inputs drawn together: each with whether it is shown (empty for one input).
     pub datasets: Vec<(PathBuf, bool)>,
+    /// How in-memory content of several inputs is read again when one is hidden or shown.
+    pub reread: Option<Reread>,
     /// Camera and settings of the last frame: an unchanged view of in-memory data needs no
     /// new frame.
     last_view: Option<(Camera, RenderSettings, (u32, u32))>,
+}
+
+/// What reading in-memory content again takes.
+#[derive(Clone, Debug)]
+pub struct Reread {
+    pub read: pointlet_io::ReadOptions,
+    pub order: pointlet_core::order::VertexOrder,
+    pub encoding: pointlet_gpu::PointEncoding,
+    pub page_size: u32,
 }
 
 impl View {
@@ -53,13 +64,14 @@ impl View {
         let nav = Navigator::new(camera, content.bounds());
         let colors = content.color_state(scale);
         let datasets = match &content {
-            crate::content::Content::Progressive(p) if p.inputs().len() > 1 => {
+            Content::Progressive(p) if p.inputs().len() > 1 => {
                 p.inputs().iter().map(|i| (i.clone(), true)).collect()
             }
             _ => Vec::new(),
         };
         Ok(Self {
             datasets,
+            reread: None,
             ctx,
             renderer,
             target,
@@ -171,12 +183,34 @@ impl View {
                 "one input at least stays shown".to_string(),
             ));
         }
-        if let crate::content::Content::Progressive(p) = &mut self.content {
-            p.reopen(&self.ctx, &shown)
-                .map_err(|e| ViewerError::Load(e.to_string()))?;
+        match (&mut self.content, &self.reread) {
+            (Content::Progressive(p), _) => {
+                p.reopen(&self.ctx, &shown)
+                    .map_err(|e| ViewerError::Load(e.to_string()))?;
+            }
+            (Content::Memory(_), Some(r)) => {
+                let source = crate::memory::Source::Files {
+                    paths: &shown,
+                    read: &r.read,
+                };
+                let data = crate::memory::MemoryData::load(source, r.order)?;
+                let scale = data.fitted(self.colors.mode());
+                self.content = Content::upload(&self.ctx, data, &scale, r.encoding, r.page_size)?;
+                self.colors = self.content.color_state(scale);
+            }
+            _ => {}
         }
         self.last_view = None;
         Ok(())
+    }
+
+    /// Lists `paths` with a visibility toggle each, for in-memory content read from them with
+    /// `reread`'s settings.
+    pub fn list_inputs(&mut self, paths: &[PathBuf], reread: Reread) {
+        if paths.len() > 1 && matches!(self.content, Content::Memory(_)) {
+            self.datasets = paths.iter().map(|p| (p.clone(), true)).collect();
+            self.reread = Some(reread);
+        }
     }
 
     /// The exact coordinates of the point under `pixel` (None: nothing there).

@@ -49,19 +49,11 @@ fn view(variant: RasterVariant) -> View {
         MemoryData::from_batch("test".into(), &cloud(), VertexOrder::Shuffled).expect("points");
     let scale = data.fitted(ColorMode::Rgb);
     let content = Content::upload(&ctx, data, &scale, PointEncoding::Full16, 256).expect("upload");
-    let camera = Camera {
-        eye: [ORIGIN[0] + 2.0, ORIGIN[1] - 30.0, ORIGIN[2] + 40.0],
-        target: ORIGIN,
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 60.0,
-        near: 0.1,
-        far: 1000.0,
-    };
     let settings = RenderSettings {
         variant,
         ..Default::default()
     };
-    View::new(ctx, content, camera, settings, scale, SIZE).expect("view")
+    View::new(ctx, content, camera_over_the_cloud(), settings, scale, SIZE).expect("view")
 }
 
 /// The pixel a world point lands on.
@@ -169,18 +161,14 @@ fn actions_bookmark_record_and_move_the_camera() {
     assert!(ui.status(1.9).is_some_and(|m| m.contains("no bookmark 8")));
 }
 
-#[test]
-fn inputs_are_shown_and_hidden_one_by_one() {
-    use pointlet_engine::{ProgressiveConfig, ProgressiveScene};
-    let ctx = GpuContext::new(&AdapterRequest::default()).expect("a GPU adapter (lavapipe)");
-    let dir = tempfile::tempdir().expect("tempdir");
-    // Two LAS files: the cloud's first two points and its last two.
+/// Two LAS files in `dir`: the cloud's first two points and its last two.
+fn two_parts(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let all = cloud();
     let mut paths = Vec::new();
     for (k, range) in [0..2, 2..4].into_iter().enumerate() {
         let mut part = PointBatch::new(all.layout);
         range.for_each(|i| part.push_from(&all, i));
-        let path = dir.path().join(format!("part{k}.las"));
+        let path = dir.join(format!("part{k}.las"));
         let mut w = pointlet_io::writer::LasWriter::create(
             &path,
             pointlet_io::writer::LasWriterConfig {
@@ -200,30 +188,11 @@ fn inputs_are_shown_and_hidden_one_by_one() {
         w.finish().expect("finish");
         paths.push(path);
     }
-    let variant = RasterVariant::ReduceEarlyZ.fallback(&ctx.caps);
-    let config = ProgressiveConfig {
-        variant,
-        ..Default::default()
-    };
-    let scene = ProgressiveScene::open_many(&ctx, &paths, config).expect("open both");
-    let scale = scene
-        .color_within(std::time::Duration::from_secs(10))
-        .expect("a colouring")
-        .scale;
-    let content = Content::Progressive(Box::new(scene));
-    let camera = Camera {
-        eye: [ORIGIN[0] + 2.0, ORIGIN[1] - 30.0, ORIGIN[2] + 40.0],
-        target: ORIGIN,
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 60.0,
-        near: 0.1,
-        far: 1000.0,
-    };
-    let settings = RenderSettings {
-        variant,
-        ..Default::default()
-    };
-    let mut v = View::new(ctx, content, camera, settings, scale, SIZE).expect("view");
+    paths
+}
+
+/// Hides and shows the second of the view's two inputs (4 points, 2 each).
+fn toggle_inputs(mut v: View, paths: &[std::path::PathBuf]) {
     let names: Vec<_> = v.datasets.iter().map(|d| (d.0.clone(), d.1)).collect();
     assert_eq!(
         names,
@@ -241,4 +210,72 @@ fn inputs_are_shown_and_hidden_one_by_one() {
     perform(Action::ShowInput(1, true), &mut v, &mut ui, 0.3).expect("show");
     assert_eq!(v.content.points(), 4);
     v.frame(0.4, 0.1).expect("a frame of both");
+}
+
+fn camera_over_the_cloud() -> Camera {
+    Camera {
+        eye: [ORIGIN[0] + 2.0, ORIGIN[1] - 30.0, ORIGIN[2] + 40.0],
+        target: ORIGIN,
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 60.0,
+        near: 0.1,
+        far: 1000.0,
+    }
+}
+
+#[test]
+fn inputs_loading_while_drawn_are_shown_and_hidden_one_by_one() {
+    use pointlet_engine::{ProgressiveConfig, ProgressiveScene};
+    let ctx = GpuContext::new(&AdapterRequest::default()).expect("a GPU adapter (lavapipe)");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let paths = two_parts(dir.path());
+    let variant = RasterVariant::ReduceEarlyZ.fallback(&ctx.caps);
+    let config = ProgressiveConfig {
+        variant,
+        ..Default::default()
+    };
+    let scene = ProgressiveScene::open_many(&ctx, &paths, config).expect("open both");
+    let scale = scene
+        .color_within(std::time::Duration::from_secs(10))
+        .expect("a colouring")
+        .scale;
+    let content = Content::Progressive(Box::new(scene));
+    let settings = RenderSettings {
+        variant,
+        ..Default::default()
+    };
+    let v = View::new(ctx, content, camera_over_the_cloud(), settings, scale, SIZE).expect("view");
+    toggle_inputs(v, &paths);
+}
+
+#[test]
+fn inputs_read_whole_are_shown_and_hidden_one_by_one() {
+    use pointlet_viewer::memory::Source;
+    let ctx = GpuContext::new(&AdapterRequest::default()).expect("a GPU adapter (lavapipe)");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let paths = two_parts(dir.path());
+    let read = Default::default();
+    let source = Source::Files {
+        paths: &paths,
+        read: &read,
+    };
+    let data = MemoryData::load(source, VertexOrder::Shuffled).expect("both read");
+    let scale = data.fitted(ColorMode::Rgb);
+    let content = Content::upload(&ctx, data, &scale, PointEncoding::Full16, 256).expect("upload");
+    let settings = RenderSettings {
+        variant: RasterVariant::Hqs.fallback(&ctx.caps),
+        ..Default::default()
+    };
+    let mut v =
+        View::new(ctx, content, camera_over_the_cloud(), settings, scale, SIZE).expect("view");
+    v.list_inputs(
+        &paths,
+        pointlet_viewer::view::Reread {
+            read,
+            order: VertexOrder::Shuffled,
+            encoding: PointEncoding::Full16,
+            page_size: 256,
+        },
+    );
+    toggle_inputs(v, &paths);
 }
