@@ -31,6 +31,7 @@ pub mod pnts;
 pub mod points;
 pub mod select;
 pub mod source;
+pub mod stream;
 pub mod tileset;
 pub mod transform;
 pub mod volume;
@@ -40,6 +41,7 @@ pub use content::{AttributeValues, ContentContext, PointAttribute, TilePoints, U
 pub use error::TilesError;
 pub use select::{plan, screen_space_error, TilePlan, TileView, WantedTile};
 pub use source::{resolve_uri, LocalSource, TileSource};
+pub use stream::{TileStream, TileStreamConfig, TileStreamStats};
 pub use tileset::{ContentRef, LoadLimits, Refine, Tile, Tileset, TilesetFile};
 pub use transform::Transform;
 pub use volume::{BoundingVolume, OrientedBox, Sphere};
