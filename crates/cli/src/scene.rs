@@ -107,7 +107,10 @@ pub fn load(
         ),
         [_, _, ..] => {
             let reader = pointlet_engine::open_inputs(inputs, &read.options())?;
-            crate::load::print_notes(reader.as_ref());
+            // Several inputs' notes name their file.
+            for n in reader.notes() {
+                eprintln!("note: {n}");
+            }
             let name = reader.path().display().to_string();
             read_all(reader, asked, name)
         }
