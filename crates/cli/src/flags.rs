@@ -55,7 +55,7 @@ impl Given<'_> {
 /// What a drawing command was given to draw.
 fn input_kind(input: Option<&Path>) -> &'static str {
     match input {
-        Some(p) if p == Path::new(crate::load::SEVERAL_INPUTS) => {
+        Some(p) if crate::load::is_several(p) => {
             "several inputs (drawn together as one point file)"
         }
         Some(p) if crate::load::is_store_path(p) => "a store",
@@ -257,7 +257,7 @@ fn kind_flags(
             if crate::load::is_store_path(p) {
                 given.refuse(&READING, "point files", "a store")?;
             }
-            let kind = if p == Path::new(crate::load::SEVERAL_INPUTS) {
+            let kind = if crate::load::is_several(p) {
                 "several inputs drawn together while they load (a closest-point --raster)"
             } else {
                 "a point file drawn while it loads (a closest-point --raster)"

@@ -49,6 +49,11 @@ pub fn drawn_input(inputs: &[PathBuf]) -> Option<&Path> {
     }
 }
 
+/// True for what [`drawn_input`] gives for several inputs.
+pub fn is_several(input: &Path) -> bool {
+    input == Path::new(SEVERAL_INPUTS)
+}
+
 /// Stores are recognised by their extension; anything else goes to the point-file readers.
 pub fn is_store_path(path: &Path) -> bool {
     pointlet_engine::is_store(path)

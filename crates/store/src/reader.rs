@@ -3,7 +3,8 @@
 
 use crate::emit::position_bounds;
 use crate::format::{
-    self, array, PointletEntry, Preamble, StoreHeader, StreamKind, PREAMBLE_LEN, TABLE_ENTRY_LEN,
+    self, array, PointletEntry, Preamble, StoreHeader, StreamInfo, StreamKind, PREAMBLE_LEN,
+    TABLE_ENTRY_LEN,
 };
 use crate::source::{is_remote, ByteSource, LocalFile, SourceError};
 use crate::StoreError;
@@ -203,6 +204,31 @@ impl Store {
         })
     }
 
+    /// Pointlet `i`'s entry, with `range` checked to lie within its points.
+    fn entry_with(&self, i: usize, range: &Range<u32>) -> Result<&PointletEntry, StoreError> {
+        let e = self.entry(i)?;
+        if range.start > range.end || range.end > e.count {
+            return Err(StoreError::request(
+                &self.path,
+                format!(
+                    "points {range:?} are outside pointlet {i} of {} points",
+                    e.count
+                ),
+            ));
+        }
+        Ok(e)
+    }
+
+    /// The `kind` stream, an error when the store has none.
+    fn stream_of(&self, kind: StreamKind) -> Result<&StreamInfo, StoreError> {
+        self.header.stream(kind).ok_or_else(|| {
+            StoreError::request(
+                &self.path,
+                format!("the store has no {} stream", kind.name()),
+            )
+        })
+    }
+
     /// The raw bytes of points `range` of pointlet `i` in each stream of `kinds`, read
     /// together: a remote store fetches them with the requests in flight at once.
     pub fn read_streams_raw(
@@ -224,29 +250,17 @@ impl Store {
         requests: &[(usize, Range<u32>)],
         kinds: &[StreamKind],
     ) -> Result<Vec<Vec<Vec<u8>>>, StoreError> {
-        let mut streams = Vec::with_capacity(kinds.len());
-        for kind in kinds {
-            let s = self.header.stream(*kind).ok_or_else(|| {
-                StoreError::request(
-                    &self.path,
-                    format!("the store has no {} stream", kind.name()),
-                )
-            })?;
-            streams.push((s.offset, s.bytes_per_point as u64));
-        }
+        let streams = kinds
+            .iter()
+            .map(|k| {
+                self.stream_of(*k)
+                    .map(|s| (s.offset, s.bytes_per_point as u64))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let mut offsets = Vec::with_capacity(requests.len() * kinds.len());
         let mut out = Vec::with_capacity(requests.len());
         for (i, range) in requests {
-            let e = *self.entry(*i)?;
-            if range.start > range.end || range.end > e.count {
-                return Err(StoreError::request(
-                    &self.path,
-                    format!(
-                        "points {range:?} are outside pointlet {i} of {} points",
-                        e.count
-                    ),
-                ));
-            }
+            let e = *self.entry_with(*i, range)?;
             let n = (range.end - range.start) as u64;
             let mut bufs = Vec::with_capacity(kinds.len());
             for (offset, bpp) in &streams {
@@ -276,22 +290,8 @@ impl Store {
         range: Range<u32>,
         out: &mut Vec<u8>,
     ) -> Result<(), StoreError> {
-        let e = self.entry(i)?;
-        if range.start > range.end || range.end > e.count {
-            return Err(StoreError::request(
-                &self.path,
-                format!(
-                    "points {range:?} are outside pointlet {i} of {} points",
-                    e.count
-                ),
-            ));
-        }
-        let s = self.header.stream(kind).ok_or_else(|| {
-            StoreError::request(
-                &self.path,
-                format!("the store has no {} stream", kind.name()),
-            )
-        })?;
+        let e = self.entry_with(i, &range)?;
+        let s = self.stream_of(kind)?;
         let bpp = s.bytes_per_point as u64;
         let offset = s.offset + (e.first + range.start as u64) * bpp;
         let bytes = (range.end - range.start) as usize * bpp as usize;
