@@ -69,6 +69,8 @@ pub struct Args {
     #[command(flatten)]
     pub virtual_args: VirtualArgs,
     #[command(flatten)]
+    pub tiles: crate::view_args::TileArgs,
+    #[command(flatten)]
     pub read: crate::load::ReadArgs,
 }
 
@@ -170,6 +172,9 @@ pub fn run(args: Args) -> Result<()> {
     // Checked before flying, not minutes later when the plot is written.
     if let Some(p) = &args.plot {
         plot_format(p)?;
+    }
+    if crate::tiles_cmd::is_streamed(std::slice::from_ref(&args.store)) {
+        return crate::tiles_cmd::bench(&args);
     }
     let point_file = !crate::load::is_store_path(&args.store) && args.store.is_file();
     if point_file || args.draw.progressive {

@@ -29,6 +29,45 @@ const READING: [&str; 1] = ["columns"];
 const SHUFFLED: [&str; 2] = ["order", "encoding"];
 /// Flags of the progressive path only.
 const PROGRESSIVE: [&str; 1] = ["target_fps"];
+/// Flags of a streamed tileset only.
+const TILES: [&str; 3] = ["max_sse", "no_clod", "tile_requests"];
+/// What a streamed tileset does not take: the store's LoD and pages, the progressive path's
+/// loading, point-file reading, in-memory order and encodings (tiles are drawn as full16),
+/// and the store-only measurements of `bench`.
+const NOT_TILES: [&str; 19] = [
+    "bucket",
+    "temporal_reuse",
+    "upload_per_frame",
+    "pool_page_size",
+    "loaders",
+    "residency_threads",
+    "no_converge",
+    "progressive",
+    "target_fps",
+    "columns",
+    "order",
+    "page_size",
+    "encoding",
+    "demo_points",
+    "quality",
+    "buckets",
+    "path_quality",
+    "warmup",
+    "converge_timeout",
+];
+
+/// A streamed tileset: its own flags, none of the other inputs'.
+fn tileset(given: &Given, input: Option<&Path>, draw: &DrawArgs) -> Result<(), String> {
+    given.refuse(
+        &NOT_TILES,
+        "stores, point files and the demo scene",
+        "a tileset (streamed by screen-space error)",
+    )?;
+    if draw.raster == RasterVariant::HwPoints {
+        return Err("--raster hw-points draws point files and the demo scene only; a tileset is drawn by the compute rasterizers (any other --raster)".into());
+    }
+    point_size(given, input, draw)
+}
 
 /// The flags of one subcommand typed on the command line.
 pub struct Given<'a>(pub &'a ArgMatches);
@@ -67,7 +106,16 @@ fn input_kind(input: Option<&Path>) -> &'static str {
 /// The usage error for the first typed flag that does not apply, if any.
 pub fn check(command: &Command, given: &Given) -> Result<(), String> {
     match command {
+        Command::Render(a) if crate::tiles_cmd::is_streamed(&a.inputs) => {
+            camera(given, &a.camera)?;
+            tileset(given, a.input(), &a.draw)
+        }
+        Command::Bench(a) if crate::tiles_cmd::is_streamed(std::slice::from_ref(&a.store)) => {
+            tileset(given, Some(&a.store), &a.draw)?;
+            bench_flight(given, a)
+        }
         Command::Render(a) => {
+            given.refuse(&TILES, "a tileset", input_kind(a.input()))?;
             camera(given, &a.camera)?;
             let store_only = [&VIRTUAL[..], &["max_frames", "no_converge"]].concat();
             // Point files drawn while loading also take a VRAM budget and a frame limit.
@@ -93,6 +141,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             )
         }
         Command::Bench(a) if !crate::load::is_store_path(&a.store) || a.draw.progressive => {
+            given.refuse(&TILES, "a tileset", input_kind(Some(&a.store)))?;
             progressive_flag(given, Some(&a.store), &a.draw)?;
             point_size(given, Some(&a.store), &a.draw)?;
             if crate::load::is_store_path(&a.store) {
@@ -118,6 +167,7 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             bench_flight(given, a)
         }
         Command::Bench(a) => {
+            given.refuse(&TILES, "a tileset", "a store")?;
             store_drawing(given, a.draw.raster)?;
             point_size(given, Some(&a.store), &a.draw)?;
             temporal_reuse(given, Some(&a.store), &a.draw)?;

@@ -21,6 +21,7 @@ mod render_cmd;
 mod scene;
 mod serve_cmd;
 mod signals;
+mod tiles_cmd;
 mod view_args;
 mod view_cmd;
 

@@ -25,6 +25,8 @@ pub struct Args {
     pub draw: DrawArgs,
     #[command(flatten)]
     pub virtual_args: VirtualArgs,
+    #[command(flatten)]
+    pub tiles: crate::view_args::TileArgs,
     /// Stores and point files: frames at most to reach the full-detail image of the still
     /// camera.
     #[arg(long, default_value_t = 10_000)]
@@ -85,6 +87,11 @@ impl Args {
 
 pub fn run(args: Args) -> Result<()> {
     crate::image_out::check_png_path(&args.output)?;
+    if let [tileset] = &args.inputs[..] {
+        if crate::tiles_cmd::is_streamed(&args.inputs) {
+            return crate::tiles_cmd::render(&args, tileset);
+        }
+    }
     if crate::progressive_cmd::is_progressive(args.input(), &args.draw) {
         return crate::progressive_cmd::render(&args, &args.inputs);
     }

@@ -327,3 +327,45 @@ pub fn parse_color_rgb(s: &str) -> Result<[f32; 4], String> {
         _ => Err(err()),
     }
 }
+
+/// Streaming of a 3D Tiles tileset (one tileset input).
+#[derive(clap::Args, Clone, Debug)]
+pub struct TileArgs {
+    /// Tiles are refined while their screen-space error exceeds this many pixels (0: every
+    /// tile down to full detail).
+    #[arg(long, default_value_t = 16.0, value_parser = parse_sse)]
+    pub max_sse: f64,
+    /// Draw every point of a drawn tile instead of the continuous-LoD filter's share.
+    #[arg(long)]
+    pub no_clod: bool,
+    /// Tiles fetched and decoded at once.
+    #[arg(long, default_value_t = 8)]
+    pub tile_requests: usize,
+}
+
+fn parse_sse(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}' is not a screen-space error in pixels (a number ≥ 0)"
+        )),
+    }
+}
+
+impl TileArgs {
+    pub fn config(
+        &self,
+        virtual_args: &VirtualArgs,
+        color: Option<ColorMode>,
+    ) -> pointlet_engine::TilesetConfig {
+        pointlet_engine::TilesetConfig {
+            max_sse: self.max_sse,
+            clod: !self.no_clod,
+            vram_budget: virtual_args.vram_budget.unwrap_or(2 << 30),
+            ram_budget: virtual_args.ram_budget.unwrap_or_else(default_ram_budget),
+            workers: self.tile_requests.max(1),
+            color,
+            ..Default::default()
+        }
+    }
+}

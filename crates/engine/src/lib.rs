@@ -13,6 +13,7 @@ mod scene;
 mod source;
 mod step;
 mod store_points;
+mod tileset_scene;
 
 pub use datasets::{inputs_name, open_inputs, Datasets};
 pub use progressive_scene::{
@@ -24,6 +25,7 @@ pub use scene::{
 };
 pub use source::{fit_scale, StoreSource};
 pub use store_points::{is_store, open_points, StorePoints};
+pub use tileset_scene::{TilesetConfig, TilesetFrameReport, TilesetScene};
 
 use thiserror::Error;
 
@@ -33,6 +35,8 @@ pub enum EngineError {
     Store(#[from] pointlet_store::StoreError),
     #[error(transparent)]
     Gpu(#[from] pointlet_gpu::GpuError),
+    #[error(transparent)]
+    Tiles(#[from] pointlet_tiles::TilesError),
     #[error("{0}")]
     Config(String),
     #[error("reading points: {0}")]

@@ -23,6 +23,7 @@ mod splat;
 mod storage;
 pub mod suballoc;
 mod target;
+pub mod tile_pool;
 mod upload;
 
 pub use bandwidth::copy_bandwidth;
@@ -41,6 +42,7 @@ pub use storage::{
     PointEncoding, COMPACT_STEPS,
 };
 pub use target::RenderTarget;
+pub use tile_pool::{TileContent, TileDraw, TileFrame, TilePool};
 pub use upload::{PageBatch, PageJob, PageSink, PageWrite};
 
 use thiserror::Error;

@@ -17,6 +17,7 @@ use crate::splat::{SplatMode, SplatSettings, SplatShape};
 use crate::storage::PointEncoding;
 use crate::storage::PointStorage;
 use crate::target::RenderTarget;
+use crate::tile_pool::TilePool;
 use crate::GpuError;
 use pointlet_core::Camera;
 use std::collections::hash_map::Entry;
@@ -368,6 +369,80 @@ impl Renderer {
         self.submit(ctx, enc, target, true)?;
         paged.after_submit();
         Ok(())
+    }
+
+    /// Records and submits one frame of streamed tiles: the continuous-LoD filter (in the
+    /// LoD's place) appends the survivors of the tiles [`TilePool::prepare`] laid out, and
+    /// the chosen rasterizer and the screen passes draw them.
+    pub fn render_tiles(
+        &mut self,
+        ctx: &GpuContext,
+        pool: &TilePool,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+    ) -> Result<(), GpuError> {
+        let variant = settings.variant;
+        if variant == RasterVariant::HwPoints {
+            return Err(GpuError::Unsupported {
+                what: variant.name().to_string(),
+                why: "the point-list baseline draws static clouds only (bench-raster)".into(),
+                adapter: ctx.describe(),
+            });
+        }
+        let mode = settings.splats.mode();
+        Self::check(ctx, variant, &settings.splats, camera)?;
+        let encoding = PointEncoding::Full16;
+        self.ensure_pipelines(ctx, settings, encoding, pool.page_size)?;
+        let shape = frame_shape(Source::Paged, settings, false);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let pipes = self.raster.get(&(variant, encoding, pool.page_size, mode));
+        let quads = self
+            .quads
+            .get(&(encoding, pool.page_size, settings.splats.shape));
+        let queries = target.timer.as_ref().map(|t| t.queries.clone());
+        let overhead = record_frame(
+            (&mut self.screen, &mut self.graphs),
+            ctx,
+            &mut enc,
+            target,
+            settings,
+            camera,
+            shape,
+            |pass, enc, px, stamps| {
+                match pass {
+                    FramePass::Lod => {
+                        // Timestamps 0/1: the LoD's, as for stores.
+                        let writes = queries.as_ref().map(|q| wgpu::ComputePassTimestampWrites {
+                            query_set: q,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        });
+                        pool.record_filter(enc, writes);
+                    }
+                    FramePass::Raster(stage) => {
+                        let draw = StageDraw {
+                            storage: &pool.output,
+                            dispatch: RasterDispatch::Indirect(&pool.indirect),
+                            clear_keys: true,
+                        };
+                        record_stage(&ctx.device, enc, pipes, stage, &draw, px, variant, &stamps);
+                    }
+                    FramePass::Quads => {
+                        if let (Some(q), Some(depth)) = (quads, px.hw_depth) {
+                            let draw = QuadDraw::Indirect(&pool.draw_args);
+                            let layer = px.raster_layer;
+                            q.record(enc, &pool.output, draw, layer, depth, stamps.render());
+                        }
+                    }
+                    _ => {}
+                }
+                Ok(())
+            },
+        )?;
+        self.graph_overhead.0 += overhead;
+        self.graph_overhead.1 += 1;
+        self.submit(ctx, enc, target, true)
     }
 
     fn submit(

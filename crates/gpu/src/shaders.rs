@@ -38,6 +38,8 @@ pub const EMPTY_SLOTS: &str = include_str!("../shaders/empty_slots.wgsl");
 pub const REUSE: &str = include_str!("../shaders/reuse.wgsl");
 pub const SPLAT_QUADS: &str = include_str!("../shaders/splat_quads.wgsl");
 pub const GAPS: &str = include_str!("../shaders/gaps.wgsl");
+pub const CLOD: &str = include_str!("../shaders/clod.wgsl");
+pub const CLOD_ENTRIES: &str = include_str!("../shaders/clod_entries.wgsl");
 pub const BLEND_SPLATS: &str = include_str!("../shaders/blend_splats.wgsl");
 
 /// A point pass: header + fetch for `encoding` + body.

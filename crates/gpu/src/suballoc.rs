@@ -107,6 +107,11 @@ impl Allocation {
         &self.buffer
     }
 
+    /// Which page of its pool holds it (pages keep their index while they exist).
+    pub fn page(&self) -> usize {
+        self.page
+    }
+
     /// The allocation's bytes as a binding.
     pub fn binding(&self) -> wgpu::BufferBinding<'_> {
         wgpu::BufferBinding {

@@ -278,35 +278,47 @@ impl TilesetPoints {
 
     /// Appends points `range` of `content` to `batch`, every column filled.
     fn append(&self, content: &TilePoints, range: std::ops::Range<usize>, batch: &mut PointBatch) {
-        batch
-            .xyz
-            .extend_from_slice(&content.positions[range.clone()]);
-        if self.meta.layout.rgb {
-            // 8-bit sRGB spread over LAS's 16-bit range (x 257: 255 becomes 65535).
-            batch.rgb.extend(
-                content.colors[range.clone()]
-                    .iter()
-                    .map(|c| [c[0] as u16 * 257, c[1] as u16 * 257, c[2] as u16 * 257]),
-            );
-        }
-        let column = |pick: fn(&str) -> bool| {
-            content
-                .attributes
+        append_points(content, range, self.meta.layout.rgb, batch);
+    }
+}
+
+/// Appends points `range` of `content` to `batch`: positions, colours (with `rgb`), and the
+/// intensity and classification a content carries under those names; the other columns get
+/// their defaults.
+pub fn append_points(
+    content: &TilePoints,
+    range: std::ops::Range<usize>,
+    rgb: bool,
+    batch: &mut PointBatch,
+) {
+    batch
+        .xyz
+        .extend_from_slice(&content.positions[range.clone()]);
+    if rgb {
+        // 8-bit sRGB spread over LAS's 16-bit range (x 257: 255 becomes 65535).
+        batch.rgb.extend(
+            content.colors[range.clone()]
                 .iter()
-                .find(|a| a.components == 1 && pick(&a.name))
-        };
-        let (intensity, classes) = (column(is_intensity), column(is_classification));
-        let at = |a: Option<&crate::PointAttribute>, i: usize, max: f64| {
-            a.and_then(|a| a.values.get_f64(i))
-                .map_or(0.0, |v| v.clamp(0.0, max))
-        };
-        for i in range {
-            batch.intensity.push(at(intensity, i, 65535.0) as u16);
-            // push_defaults also pushes class 0: the tile's own class replaces it.
-            pointlet_io::push_defaults(batch);
-            if let Some(last) = batch.classification.last_mut() {
-                *last = at(classes, i, 255.0) as u8;
-            }
+                .map(|c| [c[0] as u16 * 257, c[1] as u16 * 257, c[2] as u16 * 257]),
+        );
+    }
+    let column = |pick: fn(&str) -> bool| {
+        content
+            .attributes
+            .iter()
+            .find(|a| a.components == 1 && pick(&a.name))
+    };
+    let (intensity, classes) = (column(is_intensity), column(is_classification));
+    let at = |a: Option<&crate::PointAttribute>, i: usize, max: f64| {
+        a.and_then(|a| a.values.get_f64(i))
+            .map_or(0.0, |v| v.clamp(0.0, max))
+    };
+    for i in range {
+        batch.intensity.push(at(intensity, i, 65535.0) as u16);
+        // push_defaults also pushes class 0: the tile's own class replaces it.
+        pointlet_io::push_defaults(batch);
+        if let Some(last) = batch.classification.last_mut() {
+            *last = at(classes, i, 255.0) as u8;
         }
     }
 }

@@ -121,7 +121,8 @@ pub fn plan(
     let mut stack: Vec<WantedTile> = judge(0).into_iter().collect();
     while let Some(w) = stack.pop() {
         let tile = &tileset.tiles[w.tile];
-        if w.sse <= max_sse || tile.children.is_empty() {
+        // A maximum of 0 refines every tile, whatever its error: full detail.
+        if (w.sse <= max_sse && max_sse > 0.0) || tile.children.is_empty() {
             want(w, &mut out);
             continue;
         }

@@ -56,7 +56,8 @@ struct State {
     /// Tiles of the latest plan (drawn or requested): never evicted.
     protected: HashSet<usize>,
     frame: u64,
-    errors: Vec<String>,
+    /// Tiles that failed since the last take, with the error naming the tile.
+    errors: Vec<(usize, crate::TilesError)>,
     stats: TileStreamStats,
     stop: bool,
 }
@@ -176,6 +177,14 @@ impl TileStream {
 
     /// Errors since the last call, one line each naming the tile.
     pub fn take_errors(&self) -> Vec<String> {
+        self.take_failures()
+            .into_iter()
+            .map(|(_, e)| e.to_string())
+            .collect()
+    }
+
+    /// The tiles that failed since the last call, each with its error.
+    pub fn take_failures(&self) -> Vec<(usize, crate::TilesError)> {
         std::mem::take(&mut self.shared.lock().errors)
     }
 
@@ -233,7 +242,7 @@ fn worker(sh: &Shared) {
             }
             Err(e) => {
                 st.stats.failed += 1;
-                st.errors.push(e.to_string());
+                st.errors.push((tile, e));
             }
         }
     }

@@ -1,0 +1,471 @@
+//! A streamed 3D Tiles tileset on the render thread (WebGPU-engine paper §4–6): each frame the
+//! screen-space-error plan of the view (`pointlet_tiles::select`) says which tiles to draw and
+//! which to fetch, `TileStream` fetches and decodes on its workers within the RAM budget, the
+//! decoded tiles the plan wants go to the GPU's [`TilePool`] (its suballocator) within the VRAM
+//! budget, least recently drawn first out, and the pool's continuous-LoD filter and the
+//! rasterizers draw the plan.
+
+use crate::EngineError;
+use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale};
+use pointlet_core::extra::ExtraAttributes;
+use pointlet_core::{Aabb, Camera, PointBatch, PointLayout};
+use pointlet_gpu::{
+    GpuContext, RenderSettings, RenderTarget, Renderer, TileContent, TileDraw, TilePool,
+};
+use pointlet_tiles::points::append_points;
+use pointlet_tiles::{
+    plan, LocalSource, TilePlan, TilePoints, TileSource, TileStream, TileStreamConfig,
+    TileStreamStats, TileView, Tileset,
+};
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+use std::sync::Arc;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct TilesetConfig {
+    /// Tiles are refined while their screen-space error exceeds this (pixels).
+    pub max_sse: f64,
+    /// Continuous LoD across tiles (paper eq. 6–9); off: every point of a drawn tile.
+    pub clod: bool,
+    /// GPU memory for tile content and the frame's output points.
+    pub vram_budget: u64,
+    /// RAM for decoded tiles.
+    pub ram_budget: u64,
+    /// Tiles fetched at once.
+    pub workers: usize,
+    /// Points per output page.
+    pub page_size: u32,
+    /// Tile content moved to the GPU per frame at most (bytes; keeps frames steady).
+    pub upload_per_frame: u64,
+    /// `None`: the data's default (RGB when the tiles have colours, else elevation).
+    pub color: Option<ColorMode>,
+}
+
+impl Default for TilesetConfig {
+    fn default() -> Self {
+        Self {
+            max_sse: 16.0,
+            clod: true,
+            vram_budget: 2 << 30,
+            ram_budget: 1 << 30,
+            workers: 8,
+            page_size: 256,
+            upload_per_frame: 256 << 20,
+            color: None,
+        }
+    }
+}
+
+/// What one frame drew and streamed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TilesetFrameReport {
+    pub frame: u64,
+    /// Tiles drawn and the points the filter tested in them.
+    pub drawn_tiles: u32,
+    pub tested_points: u64,
+    /// Tiles the settled view of this camera draws, and how many of them this frame drew.
+    pub wanted_tiles: u32,
+    pub wanted_drawn: u32,
+    /// Tiles the view asked for and did not have.
+    pub requested_tiles: u32,
+    pub uploaded_tiles: u32,
+    pub uploaded_bytes: u64,
+    pub evicted_tiles: u32,
+    /// Drawn tiles left out for lack of output room.
+    pub skipped_tiles: u32,
+    /// Nothing requested and everything planned drawn: the image of this camera is final.
+    pub converged: bool,
+    pub stream: TileStreamStats,
+    /// GPU bytes of tile content and tables.
+    pub gpu_bytes: u64,
+}
+
+struct Resident {
+    last_drawn: u64,
+    spacing: f32,
+}
+
+pub struct TilesetScene {
+    name: String,
+    tileset: Arc<Tileset>,
+    stream: TileStream,
+    pool: TilePool,
+    config: TilesetConfig,
+    scale: ColorScale,
+    rgb: bool,
+    bounds: Aabb,
+    resident: HashMap<usize, Resident>,
+    /// Tiles whose content could not be read or drawn (reported once, then left out).
+    failed: HashSet<usize>,
+    notes: Vec<String>,
+    /// Tiles that could not be read (not merely of an unsupported kind): the picture lacks them.
+    errors: Vec<pointlet_tiles::TilesError>,
+    content_budget: u64,
+    frame: u64,
+    points_seen: u64,
+}
+
+/// The GPU share of the budget the output points take (the rest holds tile content).
+const OUTPUT_SHARE: u64 = 4;
+
+impl TilesetScene {
+    /// Opens the tileset at `path` (a local `tileset.json` or an `http(s)://`/`s3://` URL).
+    pub fn open(ctx: &GpuContext, path: &Path, config: TilesetConfig) -> Result<Self, EngineError> {
+        let (tileset, source): (Tileset, Arc<dyn TileSource>) = if pointlet_store::is_remote(path) {
+            let url = path.to_string_lossy().to_string();
+            let source = crate::remote_tiles::RemoteTiles;
+            let t = Tileset::load(&source, &url)?;
+            (t, Arc::new(source))
+        } else {
+            let (source, uri) = LocalSource::for_file(path);
+            let t = Tileset::load(&source, &uri)?;
+            (t, Arc::new(source))
+        };
+        let tileset = Arc::new(tileset);
+        let bounds = tileset.root().volume.aabb();
+        // The colouring is fitted on the first tile with points (breadth first).
+        let sample = first_content(&tileset, source.as_ref())?;
+        let layout = PointLayout {
+            rgb: sample
+                .iter()
+                .any(|c| c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255])),
+            ..PointLayout::default()
+        };
+        let mut batch = PointBatch {
+            layout,
+            ..PointBatch::default()
+        };
+        for c in &sample {
+            append_points(c, 0..c.len(), layout.rgb, &mut batch);
+        }
+        let mode = match config.color {
+            Some(m) if m.available_in(&layout) => m,
+            Some(m) => {
+                return Err(EngineError::Config(format!(
+                    "{}: the tileset has no {} attribute to colour by",
+                    path.display(),
+                    m.name()
+                )))
+            }
+            None => default_color(&layout, &[&batch]).mode,
+        };
+        let z = if bounds.is_empty() {
+            [0.0, 1.0]
+        } else {
+            [bounds.min[2], bounds.max[2]]
+        };
+        let scale = ColorScale::fit_in(mode, &[&batch], z, &ExtraAttributes::default());
+        let output_points = (config.vram_budget / OUTPUT_SHARE / 16).max(1 << 16);
+        let pool = TilePool::new(ctx, output_points, config.page_size)?;
+        let content_budget = config.vram_budget.saturating_sub(pool.gpu_bytes());
+        let stream = TileStream::new(
+            Arc::clone(&tileset),
+            source,
+            TileStreamConfig {
+                workers: config.workers,
+                ram_budget: config.ram_budget,
+            },
+        )
+        .map_err(|e| EngineError::Config(format!("starting the tile fetchers: {e}")))?;
+        Ok(Self {
+            name: path.display().to_string(),
+            tileset,
+            stream,
+            pool,
+            config,
+            scale,
+            rgb: layout.rgb,
+            bounds,
+            resident: HashMap::new(),
+            failed: HashSet::new(),
+            notes: Vec::new(),
+            errors: Vec::new(),
+            content_budget,
+            frame: 0,
+            points_seen: 0,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The root tile's bounding box (world coordinates).
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    pub fn tiles(&self) -> usize {
+        self.tileset.tiles.len()
+    }
+
+    pub fn color_mode(&self) -> ColorMode {
+        self.scale.mode
+    }
+
+    /// What was skipped since the last call (content of a kind not read, a tile too large to
+    /// draw), one line each naming the tile.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
+    }
+
+    /// Tiles that could not be read since the last call (missing, truncated, damaged, a server
+    /// error), each error naming its tile. The view draws without them.
+    pub fn take_errors(&mut self) -> Vec<pointlet_tiles::TilesError> {
+        std::mem::take(&mut self.errors)
+    }
+
+    pub fn gpu_bytes(&self) -> u64 {
+        self.pool.gpu_bytes()
+    }
+
+    /// Points of the tiles uploaded so far (tiles uploaded again count again).
+    pub fn points_seen(&self) -> u64 {
+        self.points_seen
+    }
+
+    fn drawable(&self, t: usize) -> bool {
+        self.resident.contains_key(&t) || self.failed.contains(&t)
+    }
+
+    fn plan(&self, view: &TileView) -> TilePlan {
+        plan(&self.tileset, view, self.config.max_sse, &|t| {
+            self.drawable(t)
+        })
+    }
+
+    /// Plans, streams and draws one frame of `camera` into `target`.
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        settings: &RenderSettings,
+        target: &mut RenderTarget,
+    ) -> Result<TilesetFrameReport, EngineError> {
+        self.frame += 1;
+        let view = TileView {
+            camera: *camera,
+            width: target.width,
+            height: target.height,
+        };
+        let mut report = TilesetFrameReport {
+            frame: self.frame,
+            ..Default::default()
+        };
+        for (tile, error) in self.stream.take_failures() {
+            self.failed.insert(tile);
+            if matches!(
+                error.root_cause(),
+                pointlet_tiles::TilesError::Unsupported { .. }
+            ) {
+                self.notes.push(format!("skipped: {error}"));
+            } else {
+                self.errors.push(error);
+            }
+        }
+        let first = self.plan(&view);
+        self.stream.update(&first);
+        self.upload(ctx, &first, &mut report);
+        // Planned again: tiles uploaded just now draw this frame.
+        let plan = self.plan(&view);
+        let focal = camera.focal_px(target.height);
+        let mut draws = Vec::with_capacity(plan.draw.len());
+        for w in &plan.draw {
+            let Some(r) = self.resident.get_mut(&w.tile) else {
+                continue;
+            };
+            r.last_drawn = self.frame;
+            let tile = &self.tileset.tiles[w.tile];
+            // s_native / k with k = max_sse / focal: a point keeps with probability
+            // SSE(d) / max_sse. Tiles without children keep all (nothing finer takes over),
+            // and so does full detail (max SSE 0) and a tile that claims no error.
+            let filtered = self.config.clod
+                && !tile.children.is_empty()
+                && self.config.max_sse > 0.0
+                && tile.geometric_error > 0.0;
+            let clod = filtered.then(|| tile.geometric_error * focal / self.config.max_sse);
+            let kept = clod.map_or(1.0, |c| (c / w.distance.max(1e-9)).clamp(1e-3, 1.0));
+            draws.push(TileDraw {
+                key: w.tile as u64,
+                clod,
+                spacing: (r.spacing as f64 / kept.sqrt()) as f32,
+            });
+        }
+        // Nearest first: if the output fills up, the far tiles are the ones left out.
+        let mut order: Vec<usize> = (0..draws.len()).collect();
+        order.sort_by(|a, b| plan.draw[*a].distance.total_cmp(&plan.draw[*b].distance));
+        let draws: Vec<TileDraw> = order.into_iter().map(|k| draws[k]).collect();
+        let laid = self
+            .pool
+            .prepare(ctx, camera, (target.width, target.height), settings, &draws);
+        renderer.render_tiles(ctx, &self.pool, camera, settings, target)?;
+        let wanted = plan_all(&self.tileset, &view, self.config.max_sse);
+        let drawn: HashSet<usize> = draws.iter().map(|d| d.key as usize).collect();
+        report.drawn_tiles = laid.tiles;
+        report.tested_points = laid.points;
+        report.skipped_tiles = laid.skipped;
+        report.wanted_tiles = wanted.len() as u32;
+        report.wanted_drawn = wanted
+            .iter()
+            .filter(|t| drawn.contains(t) || self.failed.contains(t))
+            .count() as u32;
+        report.requested_tiles = plan.requests.len() as u32;
+        report.converged = plan.requests.is_empty() && laid.skipped == 0;
+        report.stream = self.stream.stats();
+        report.gpu_bytes = self.pool.gpu_bytes();
+        Ok(report)
+    }
+
+    /// Moves decoded tiles the plan wants from RAM to the GPU, most important first, making
+    /// room by dropping the least recently drawn tiles the plan does not draw.
+    fn upload(&mut self, ctx: &GpuContext, plan: &TilePlan, report: &mut TilesetFrameReport) {
+        let keep: HashSet<usize> = plan.draw.iter().map(|w| w.tile).collect();
+        for w in &plan.requests {
+            if report.uploaded_bytes >= self.config.upload_per_frame {
+                break;
+            }
+            if self.drawable(w.tile) {
+                continue;
+            }
+            let Some(contents) = self.stream.get(w.tile) else {
+                continue;
+            };
+            let (positions, colors) = self.encode(&contents);
+            if positions.is_empty() {
+                self.failed.insert(w.tile);
+                continue;
+            }
+            let bytes = TilePool::tile_bytes(positions.len());
+            if !self.make_room(bytes, &keep, report) {
+                // The budget holds no more with what this view draws: the view stays coarser.
+                break;
+            }
+            let origin = contents
+                .first()
+                .and_then(|c| c.positions.first())
+                .copied()
+                .unwrap_or([0.0; 3]);
+            let content = TileContent {
+                positions: &positions,
+                colors: &colors,
+            };
+            match self.pool.upload(ctx, w.tile as u64, origin, content) {
+                Ok(()) => {
+                    let spacing = tile_spacing(&positions);
+                    self.resident.insert(
+                        w.tile,
+                        Resident {
+                            last_drawn: self.frame,
+                            spacing,
+                        },
+                    );
+                    self.points_seen += positions.len() as u64;
+                    report.uploaded_tiles += 1;
+                    report.uploaded_bytes += bytes;
+                }
+                Err(e) => {
+                    let path = &self.tileset.tiles[w.tile].path;
+                    self.notes.push(format!("tile {path}: not drawn: {e}"));
+                    self.failed.insert(w.tile);
+                }
+            }
+        }
+    }
+
+    /// Evicts until `bytes` more fit the content budget; false when only tiles of `keep` are
+    /// left to evict.
+    fn make_room(
+        &mut self,
+        bytes: u64,
+        keep: &HashSet<usize>,
+        report: &mut TilesetFrameReport,
+    ) -> bool {
+        if self.pool.content_bytes() + bytes <= self.content_budget {
+            return true;
+        }
+        let mut victims: Vec<(u64, usize)> = self
+            .resident
+            .iter()
+            .filter(|(t, _)| !keep.contains(t))
+            .map(|(t, r)| (r.last_drawn, *t))
+            .collect();
+        victims.sort_unstable();
+        for (_, t) in victims {
+            if self.pool.content_bytes() + bytes <= self.content_budget {
+                break;
+            }
+            self.pool.remove(t as u64);
+            self.resident.remove(&t);
+            report.evicted_tiles += 1;
+        }
+        self.pool.content_bytes() + bytes <= self.content_budget
+    }
+
+    /// World positions and RGBA8 colours of a tile's contents.
+    fn encode(&self, contents: &[TilePoints]) -> (Vec<[f64; 3]>, Vec<u32>) {
+        let mut batch = PointBatch {
+            layout: PointLayout {
+                rgb: self.rgb,
+                ..PointLayout::default()
+            },
+            ..PointBatch::default()
+        };
+        for c in contents {
+            append_points(c, 0..c.len(), self.rgb, &mut batch);
+        }
+        let colors = (0..batch.len())
+            .map(|i| point_color(&batch, i, &self.scale))
+            .collect();
+        (batch.xyz, colors)
+    }
+}
+
+/// The tiles a settled view of `view` draws (every tile loaded).
+fn plan_all(tileset: &Tileset, view: &TileView, max_sse: f64) -> Vec<usize> {
+    plan(tileset, view, max_sse, &|_| true)
+        .draw
+        .iter()
+        .map(|w| w.tile)
+        .collect()
+}
+
+/// Mean spacing of a tile's points from their bounding box and count (for adaptive splats):
+/// a surface sample of n points over the box's two largest sides.
+fn tile_spacing(positions: &[[f64; 3]]) -> f32 {
+    let mut b = Aabb::EMPTY;
+    for p in positions {
+        b.grow(*p);
+    }
+    let mut e = [0, 1, 2].map(|a| (b.max[a] - b.min[a]).max(0.0));
+    e.sort_by(f64::total_cmp);
+    let area = (e[2] * e[1]).max(e[2] * e[2] * 1e-6);
+    (area / positions.len().max(1) as f64).sqrt() as f32
+}
+
+/// The contents of the first tile with points, breadth first from the root.
+fn first_content(
+    tileset: &Tileset,
+    source: &dyn TileSource,
+) -> Result<Vec<TilePoints>, EngineError> {
+    let mut queue = std::collections::VecDeque::from([0usize]);
+    let mut failures = 0;
+    while let Some(t) = queue.pop_front() {
+        let Some(tile) = tileset.tiles.get(t) else {
+            continue;
+        };
+        if !tile.contents.is_empty() {
+            match tileset.read_tile(source, t) {
+                Ok(c) if c.iter().any(|c| !c.is_empty()) => return Ok(c),
+                Ok(_) => {}
+                // A broken tile is reported when drawn; the colouring looks further.
+                Err(_) if failures < 8 => failures += 1,
+                Err(e) => return Err(e.into()),
+            }
+        }
+        queue.extend(tile.children.iter().copied());
+    }
+    Err(EngineError::Config(
+        "the tileset's tiles hold no points".to_string(),
+    ))
+}
