@@ -23,6 +23,10 @@
 #   laz              50 M-point LAZ: decoding with our decoder and the laz crate, and loading
 #                    while drawing (issue 11)
 #   alloc            the GPU buffer suballocator against a buffer per allocation (issue 13)
+#   tiles            the suballocator, then the 1 G-point lean store exported as a local 3D
+#                    Tiles tileset (positions and colours) and both flown along the realtime
+#                    orbit: the store (one-pixel points, then adaptive splats: issue 12's
+#                    ratio), the tileset at max SSE 16, 4 and 1 (issue 13; generates the store)
 set -euo pipefail
 phase=$1
 out=$2
@@ -216,6 +220,32 @@ case "$phase" in
     ;;
   alloc)
     "$bin" bench-alloc --rounds 5 --json "$out/alloc.json" 2>&1 | tee "$out/alloc.txt"
+    ;;
+  tiles)
+    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv >"$out/gpu.txt" || true
+    "$bin" bench-alloc --rounds 5 --json "$out/alloc.json" 2>&1 | tee "$out/alloc.txt"
+    [ -f "$store" ] || /usr/bin/time -f "generate: %e s, %M KiB" "$bin" generate --points 1G --lean \
+      -o "$store" 2>&1 | tail -2 | tee "$out/store.txt"
+    tiles=/tmp/bench-1g-tiles
+    [ -f "$tiles/tileset.json" ] || /usr/bin/time -f "export: %e s, %M KiB" "$bin" export-3dtiles \
+      "$store" -o "$tiles" --local --no-metadata 2>&1 | tail -4 | tee "$out/export.txt"
+    du -sb "$store" "$tiles" | tee -a "$out/export.txt"
+    df -h /tmp | tee -a "$out/export.txt"
+    size=$(stat -c %s "$store")
+    common=(--frames 1200 --orbit-seconds 20 --realtime --vram-budget $((size / 20)) --ram-budget 4GiB)
+    cat "$store" >/dev/null
+    find "$tiles" -type f -exec cat {} + >/dev/null
+    for round in $(seq 1 "${ROUNDS:-1}"); do
+      for cfg in ${STORE_CONFIGS:-1 adaptive}; do
+        "$bin" bench "$store" "${common[@]}" --bucket 25M --point-size "$cfg" \
+          --json "$out/store-$cfg-$round.json" 2>&1 | tee "$out/store-$cfg-$round.txt"
+      done
+      for sse in ${SSES:-16 4 1}; do
+        "$bin" bench "$tiles/tileset.json" "${common[@]}" --max-sse "$sse" --point-size 1 \
+          --json "$out/tiles-sse$sse-$round.json" 2>&1 | tee "$out/tiles-sse$sse-$round.txt"
+      done
+    done
+    gzip -f "$out"/*.json
     ;;
   laz)
     f=/tmp/p50.laz

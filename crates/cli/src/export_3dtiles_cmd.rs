@@ -29,6 +29,13 @@ pub struct Args {
     /// Replace an output folder that is not empty.
     #[arg(long)]
     pub force: bool,
+    /// Keep the store's own coordinates (a local tileset) even when its CRS could place the
+    /// tileset on the globe.
+    #[arg(long)]
+    pub local: bool,
+    /// Positions and colours only, no per-point metadata: the smallest tileset for viewing.
+    #[arg(long)]
+    pub no_metadata: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -45,6 +52,8 @@ pub fn run(args: Args) -> Result<()> {
             .ram_budget
             .unwrap_or_else(crate::convert_cmd::default_ram_budget),
         force: args.force,
+        local: args.local,
+        metadata: !args.no_metadata,
     };
     let bar = crate::progress::bar(store.header().points, "tiling");
     let started = Instant::now();

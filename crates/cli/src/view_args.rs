@@ -135,11 +135,15 @@ impl DrawArgs {
     }
 
     /// Point size and shape for `input`: `--point-size` (default: adaptive for a store drawn
-    /// through its LoD, whose pointlets are drawn at a fraction of their points; one pixel for
+    /// through its LoD, whose pointlets are drawn at a fraction of their points, and for a
+    /// streamed tileset, whose coarse tiles and filtered points are sparse; one pixel for
     /// point files, which are drawn whole) and `--splat-shape`.
     pub fn splats_for(&self, input: Option<&Path>) -> SplatSettings {
         let store = input.is_some_and(crate::load::is_store_path) && !self.progressive;
-        let default = if store {
+        let tileset = input.is_some_and(|p| {
+            !crate::load::is_several(p) && pointlet_tiles::points::is_tileset_path(p)
+        });
+        let default = if store || tileset {
             PointSize::adaptive()
         } else {
             PointSize::Fixed(1)

@@ -40,8 +40,9 @@ fn producers_tilesets_draw_like_their_source_files() {
     ];
     for view in [&["--view", "overview"][..], &["--view", "closeup"]] {
         for (tileset, source, tolerance) in cases {
-            // --max-sse 0: every tile down to full detail, every point of each.
-            let full = [view, &["--max-sse", "0"]].concat();
+            // --max-sse 0: every tile down to full detail, every point of each, one pixel each
+            // as the source's.
+            let full = [view, &["--max-sse", "0", "--point-size", "1"]].concat();
             let a = render(&data(tileset), &dir.path().join("tileset.png"), &full);
             let b = render(&data(source), &dir.path().join("source.png"), view);
             let (la, lb) = (lit(&a), lit(&b));
@@ -248,4 +249,115 @@ fn a_tileset_converts_to_a_store_of_its_points() {
         a == b,
         "the store of the tileset draws differently from the LAS file's"
     );
+}
+
+/// The number before `what` in a `render` summary line ("… 12 tiles drawn, …").
+fn count_before(text: &str, what: &str) -> u64 {
+    let at = text
+        .find(what)
+        .unwrap_or_else(|| panic!("no '{what}' in:\n{text}"));
+    text[..at]
+        .trim_end()
+        .rsplit(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count before '{what}' in:\n{text}"))
+}
+
+#[test]
+fn our_export_streams_back_to_the_stores_picture_refining_with_the_view() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let store = dir.path().join("autzen.pointlet");
+    ok(&["convert", s(&data("autzen_trim.laz")), "-o", s(&store)]);
+    let one = ["--point-size", "1", "--width", "320", "--height", "240"];
+    let png = dir.path().join("out.png");
+    ok(&[&["render", s(&store), "-o", s(&png)][..], &one].concat());
+    let expected = png_rgba(&png);
+    for refine in ["add", "replace"] {
+        let tiles = dir.path().join(refine);
+        ok(&[
+            "export-3dtiles",
+            s(&store),
+            "-o",
+            s(&tiles),
+            "--refine",
+            refine,
+            "--points-per-tile",
+            "5K",
+        ]);
+        let tileset = tiles.join("tileset.json");
+        // Full detail: every point, where the store puts it.
+        let full = ok_stderr(
+            &[
+                &["render", s(&tileset), "-o", s(&png), "--max-sse", "0"][..],
+                &one,
+            ]
+            .concat(),
+        );
+        assert_eq!(
+            count_before(&full, "points tested"),
+            110_000,
+            "{refine}:\n{full}"
+        );
+        let got = png_rgba(&png);
+        let (la, lb) = (lit(&got), lit(&expected));
+        let differ = la.iter().zip(&lb).filter(|(x, y)| x != y).count();
+        assert_eq!(
+            differ, 0,
+            "{refine}: {differ} pixels covered by one picture only"
+        );
+        // The default error draws the coarse tiles of the overview, more of them close up.
+        let coarse = ok_stderr(&["render", s(&tileset), "-o", s(&png)]);
+        let close = ok_stderr(&["render", s(&tileset), "-o", s(&png), "--view", "closeup"]);
+        let (n_coarse, n_close) = (
+            count_before(&coarse, "points tested"),
+            count_before(&close, "points tested"),
+        );
+        assert!(
+            n_coarse < 110_000 / 4,
+            "{refine}: the overview at 16 px draws {n_coarse} points"
+        );
+        assert!(
+            count_before(&full, "tiles drawn") > count_before(&coarse, "tiles drawn"),
+            "{refine}: full detail draws no more tiles than the overview"
+        );
+        let _ = n_close;
+    }
+    // A budget too small for the view: tiles come and go, the GPU memory stays within it.
+    let json = dir.path().join("bench.json");
+    ok(&[
+        "bench",
+        s(&dir.path().join("add/tileset.json")),
+        "--frames",
+        "60",
+        "--orbit-seconds",
+        "3",
+        "--width",
+        "320",
+        "--height",
+        "240",
+        "--max-sse",
+        "0",
+        "--vram-budget",
+        "2560KiB",
+        "--json",
+        s(&json),
+    ]);
+    let text = std::fs::read_to_string(&json).expect("bench json");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    let frames = v["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 60);
+    let peak = frames
+        .iter()
+        .filter_map(|f| f["gpu_bytes"].as_u64())
+        .max()
+        .unwrap_or(0);
+    let evicted: u64 = frames
+        .iter()
+        .filter_map(|f| f["evicted_tiles"].as_u64())
+        .sum();
+    let share = v["wanted_drawn"].as_f64().expect("share");
+    assert!(peak <= 2560 << 10, "GPU {peak} bytes for a 2.5 MiB budget");
+    assert!(evicted > 0, "nothing evicted under a budget below the data");
+    assert!(share > 0.2 && share < 1.0, "share drawn {share}");
 }

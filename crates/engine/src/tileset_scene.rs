@@ -8,13 +8,15 @@
 use crate::EngineError;
 use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale};
 use pointlet_core::extra::ExtraAttributes;
+use pointlet_core::size::format_bytes;
 use pointlet_core::{Aabb, Camera, PointBatch, PointLayout};
+use pointlet_gpu::tile_pool::encode_tile;
 use pointlet_gpu::{
-    GpuContext, RenderSettings, RenderTarget, Renderer, TileContent, TileDraw, TilePool,
+    GpuContext, RenderSettings, RenderTarget, Renderer, TileDraw, TilePool, CONTENT_PAGE_BYTES,
 };
 use pointlet_tiles::points::append_points;
 use pointlet_tiles::{
-    plan, LocalSource, TilePlan, TilePoints, TileSource, TileStream, TileStreamConfig,
+    plan, LocalSource, TileData, TilePlan, TilePoints, TileSource, TileStream, TileStreamConfig,
     TileStreamStats, TileView, Tileset,
 };
 use std::collections::{HashMap, HashSet};
@@ -85,14 +87,52 @@ struct Resident {
     spacing: f32,
 }
 
+/// A tile as the fetch workers leave it: GPU words ready to copy.
+struct EncodedTile {
+    origin: [f64; 3],
+    /// f32 xyz relative to `origin`, as bits ([`pointlet_gpu::tile_pool::encode_tile`]).
+    positions: Vec<u32>,
+    colors: Vec<u32>,
+    spacing: f32,
+}
+
+impl TileData for EncodedTile {
+    fn bytes(&self) -> u64 {
+        (self.positions.len() + self.colors.len()) as u64 * 4
+    }
+}
+
+/// World positions and RGBA8 colours of a tile's contents, coloured by `scale`.
+fn encode(contents: &[TilePoints], rgb: bool, scale: &ColorScale) -> EncodedTile {
+    let mut batch = PointBatch {
+        layout: PointLayout {
+            rgb,
+            ..PointLayout::default()
+        },
+        ..PointBatch::default()
+    };
+    for c in contents {
+        append_points(c, 0..c.len(), rgb, &mut batch);
+    }
+    let colors = (0..batch.len())
+        .map(|i| point_color(&batch, i, scale))
+        .collect();
+    let origin = batch.xyz.first().copied().unwrap_or([0.0; 3]);
+    EncodedTile {
+        origin,
+        positions: encode_tile(&batch.xyz, origin),
+        spacing: tile_spacing(&batch.xyz),
+        colors,
+    }
+}
+
 pub struct TilesetScene {
     name: String,
     tileset: Arc<Tileset>,
-    stream: TileStream,
+    stream: TileStream<EncodedTile>,
     pool: TilePool,
     config: TilesetConfig,
     scale: ColorScale,
-    rgb: bool,
     bounds: Aabb,
     resident: HashMap<usize, Resident>,
     /// Tiles whose content could not be read or drawn (reported once, then left out).
@@ -156,15 +196,26 @@ impl TilesetScene {
         };
         let scale = ColorScale::fit_in(mode, &[&batch], z, &ExtraAttributes::default());
         let output_points = (config.vram_budget / OUTPUT_SHARE / 16).max(1 << 16);
-        let pool = TilePool::new(ctx, output_points, config.page_size)?;
+        // Pages of a sixteenth of the content's share: a page partly used is little of it.
+        let page_bytes = (config.vram_budget / 16).clamp(1 << 20, CONTENT_PAGE_BYTES);
+        let pool = TilePool::new(ctx, output_points, config.page_size, page_bytes)?;
         let content_budget = config.vram_budget.saturating_sub(pool.gpu_bytes());
-        let stream = TileStream::new(
+        if content_budget < page_bytes {
+            return Err(EngineError::Config(format!(
+                "--vram-budget {} leaves no room for tiles beside the frame's output ({})",
+                format_bytes(config.vram_budget),
+                format_bytes(pool.gpu_bytes())
+            )));
+        }
+        let rgb = layout.rgb;
+        let stream = TileStream::with_prepare(
             Arc::clone(&tileset),
             source,
             TileStreamConfig {
                 workers: config.workers,
                 ram_budget: config.ram_budget,
             },
+            move |_, contents| Ok(encode(&contents, rgb, &scale)),
         )
         .map_err(|e| EngineError::Config(format!("starting the tile fetchers: {e}")))?;
         Ok(Self {
@@ -174,7 +225,6 @@ impl TilesetScene {
             pool,
             config,
             scale,
-            rgb: layout.rgb,
             bounds,
             resident: HashMap::new(),
             failed: HashSet::new(),
@@ -328,41 +378,37 @@ impl TilesetScene {
             if self.drawable(w.tile) {
                 continue;
             }
-            let Some(contents) = self.stream.get(w.tile) else {
+            let Some(tile) = self.stream.get(w.tile) else {
                 continue;
             };
-            let (positions, colors) = self.encode(&contents);
-            if positions.is_empty() {
+            if tile.colors.is_empty() {
                 self.failed.insert(w.tile);
                 continue;
             }
-            let bytes = TilePool::tile_bytes(positions.len());
-            if !self.make_room(bytes, &keep, report) {
+            let n = tile.colors.len();
+            if !self.make_room(n, &keep, report) {
                 // The budget holds no more with what this view draws: the view stays coarser.
                 break;
             }
-            let origin = contents
-                .first()
-                .and_then(|c| c.positions.first())
-                .copied()
-                .unwrap_or([0.0; 3]);
-            let content = TileContent {
-                positions: &positions,
-                colors: &colors,
-            };
-            match self.pool.upload(ctx, w.tile as u64, origin, content) {
+            let uploaded = self.pool.upload_encoded(
+                ctx,
+                w.tile as u64,
+                tile.origin,
+                &tile.positions,
+                &tile.colors,
+            );
+            match uploaded {
                 Ok(()) => {
-                    let spacing = tile_spacing(&positions);
                     self.resident.insert(
                         w.tile,
                         Resident {
                             last_drawn: self.frame,
-                            spacing,
+                            spacing: tile.spacing,
                         },
                     );
-                    self.points_seen += positions.len() as u64;
+                    self.points_seen += n as u64;
                     report.uploaded_tiles += 1;
-                    report.uploaded_bytes += bytes;
+                    report.uploaded_bytes += TilePool::tile_bytes(n);
                 }
                 Err(e) => {
                     let path = &self.tileset.tiles[w.tile].path;
@@ -373,15 +419,19 @@ impl TilesetScene {
         }
     }
 
-    /// Evicts until `bytes` more fit the content budget; false when only tiles of `keep` are
-    /// left to evict.
+    /// Evicts until a tile of `points` points fits the content budget; false when only tiles
+    /// of `keep` are left to evict.
     fn make_room(
         &mut self,
-        bytes: u64,
+        points: usize,
         keep: &HashSet<usize>,
         report: &mut TilesetFrameReport,
     ) -> bool {
-        if self.pool.content_bytes() + bytes <= self.content_budget {
+        // Pages are made as needed: a tile that needs a new page needs its bytes in the budget.
+        let fits = |pool: &TilePool| {
+            pool.content_reserved() + pool.growth_for(points) <= self.content_budget
+        };
+        if fits(&self.pool) {
             return true;
         }
         let mut victims: Vec<(u64, usize)> = self
@@ -392,32 +442,14 @@ impl TilesetScene {
             .collect();
         victims.sort_unstable();
         for (_, t) in victims {
-            if self.pool.content_bytes() + bytes <= self.content_budget {
+            if fits(&self.pool) {
                 break;
             }
             self.pool.remove(t as u64);
             self.resident.remove(&t);
             report.evicted_tiles += 1;
         }
-        self.pool.content_bytes() + bytes <= self.content_budget
-    }
-
-    /// World positions and RGBA8 colours of a tile's contents.
-    fn encode(&self, contents: &[TilePoints]) -> (Vec<[f64; 3]>, Vec<u32>) {
-        let mut batch = PointBatch {
-            layout: PointLayout {
-                rgb: self.rgb,
-                ..PointLayout::default()
-            },
-            ..PointBatch::default()
-        };
-        for c in contents {
-            append_points(c, 0..c.len(), self.rgb, &mut batch);
-        }
-        let colors = (0..batch.len())
-            .map(|i| point_color(&batch, i, &self.scale))
-            .collect();
-        (batch.xyz, colors)
+        fits(&self.pool)
     }
 }
 

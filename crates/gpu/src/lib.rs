@@ -42,7 +42,7 @@ pub use storage::{
     PointEncoding, COMPACT_STEPS,
 };
 pub use target::RenderTarget;
-pub use tile_pool::{TileContent, TileDraw, TileFrame, TilePool};
+pub use tile_pool::{TileContent, TileDraw, TileFrame, TilePool, CONTENT_PAGE_BYTES};
 pub use upload::{PageBatch, PageJob, PageSink, PageWrite};
 
 use thiserror::Error;

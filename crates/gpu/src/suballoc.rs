@@ -232,6 +232,23 @@ impl Suballocator {
         })
     }
 
+    /// GPU bytes a new page would add for `size` bytes of `usage` (0 when a page has room).
+    pub fn growth_for(&self, usage: wgpu::BufferUsages, size: u64) -> u64 {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let taken = size.max(1).div_ceil(ALIGNMENT) * ALIGNMENT;
+        let fits = self.pools.get(&usage).is_some_and(|pool| {
+            pool.pages
+                .iter()
+                .flatten()
+                .any(|p| p.ranges.largest() >= taken)
+        });
+        if fits {
+            0
+        } else {
+            taken.max(self.page_size)
+        }
+    }
+
     /// Gives an allocation back. Pages stay allocated for later requests; see
     /// [`trim`](Self::trim).
     pub fn free(&mut self, a: Allocation) {

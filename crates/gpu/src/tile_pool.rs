@@ -121,6 +121,8 @@ pub struct TilePool {
     /// Filter bind groups by content page (pages are never released, so these stay valid).
     page_groups: HashMap<usize, wgpu::BindGroup>,
     max_blocks: u32,
+    /// Tiles drawn in one frame at most.
+    max_tiles: u32,
     /// This frame's dispatches and entries.
     dispatches: Vec<PageDispatch>,
     entry_count: u32,
@@ -131,12 +133,21 @@ pub struct TilePool {
 const RANGE_STRIDE: u64 = 256;
 
 impl TilePool {
-    /// A pool drawing at most `output_points` points a frame in pages of `page_size`.
-    pub fn new(ctx: &GpuContext, output_points: u64, page_size: u32) -> Result<Self, GpuError> {
+    /// A pool drawing at most `output_points` points a frame in pages of `page_size`, its
+    /// content in suballocator pages of `content_page_bytes` (at most [`CONTENT_PAGE_BYTES`]
+    /// and the binding limit: a page is bound whole).
+    pub fn new(
+        ctx: &GpuContext,
+        output_points: u64,
+        page_size: u32,
+        content_page_bytes: u64,
+    ) -> Result<Self, GpuError> {
         crate::storage::check_page_size(page_size)?;
         let device = &ctx.device;
         let per_chunk = PointStorage::slots_per_chunk(ctx, PointEncoding::Full16, page_size);
         let slots = (output_points.div_ceil(page_size as u64).max(1)).min(per_chunk as u64) as u32;
+        // A drawn tile takes at least one output page.
+        let max_tiles = slots.min(MAX_DRAWN_TILES);
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             ctx.checked("allocating the tile tables", || {
                 device.create_buffer(&wgpu::BufferDescriptor {
@@ -154,16 +165,16 @@ impl TilePool {
             std::mem::size_of::<crate::storage::GpuFrame>() as u64,
             U::UNIFORM | U::COPY_DST,
         )?;
-        let infos = buffer("tile infos", MAX_DRAWN_TILES as u64 * 32, storage)?;
+        let infos = buffer("tile infos", max_tiles as u64 * 32, storage)?;
         let entries = buffer("tile entries", slots as u64 * 16, storage)?;
         let entry_counts = buffer("tile entry counts", 16, storage)?;
         let indirect = buffer("tile indirect", 16, U::INDIRECT | U::STORAGE | U::COPY_DST)?;
         let draw_args = buffer("tile draw args", 16, U::INDIRECT | U::STORAGE | U::COPY_DST)?;
-        let max_blocks = (slots as u64 * page_size as u64 / BLOCK as u64 + MAX_DRAWN_TILES as u64)
+        let max_blocks = (slots as u64 * page_size as u64 / BLOCK as u64 + max_tiles as u64)
             .min(u32::MAX as u64) as u32;
         let tile_params = buffer(
             "tile params",
-            MAX_DRAWN_TILES as u64 * std::mem::size_of::<GpuTile>() as u64,
+            max_tiles as u64 * std::mem::size_of::<GpuTile>() as u64,
             storage,
         )?;
         let blocks = buffer("tile blocks", max_blocks as u64 * 8, storage)?;
@@ -174,7 +185,7 @@ impl TilePool {
         )?;
         let survivors = buffer(
             "tile survivors",
-            MAX_DRAWN_TILES as u64 * 4,
+            max_tiles as u64 * 4,
             storage | U::COPY_SRC,
         )?;
         let entry_pages = buffer("tile entry pages", slots as u64 * 4, storage)?;
@@ -258,7 +269,9 @@ impl TilePool {
                 whole(3, &entries),
             ],
         });
-        let page_bytes = CONTENT_PAGE_BYTES.min(ctx.caps.max_binding);
+        let page_bytes = content_page_bytes
+            .min(CONTENT_PAGE_BYTES)
+            .min(ctx.caps.max_binding);
         Ok(Self {
             content: Suballocator::new(page_bytes),
             tiles: HashMap::new(),
@@ -283,6 +296,7 @@ impl TilePool {
             finalize_group,
             page_groups: HashMap::new(),
             max_blocks,
+            max_tiles,
             dispatches: Vec::new(),
             entry_count: 0,
             drawn_tiles: 0,
@@ -317,12 +331,23 @@ impl TilePool {
         self.content.stats().used
     }
 
+    /// Bytes of the content pages (allocated or not).
+    pub fn content_reserved(&self) -> u64 {
+        self.content.stats().reserved
+    }
+
+    /// GPU bytes a tile of `points` points would add in new content pages (0: it fits).
+    pub fn growth_for(&self, points: usize) -> u64 {
+        self.content
+            .growth_for(wgpu::BufferUsages::STORAGE, points as u64 * 16)
+    }
+
     /// GPU bytes of the pool: content pages, the output and the tables.
     pub fn gpu_bytes(&self) -> u64 {
         self.content.stats().reserved
             + self.output.bytes()
             + self.slots as u64 * 20
-            + MAX_DRAWN_TILES as u64 * (32 + 48 + 4)
+            + self.max_tiles as u64 * (32 + 48 + 4)
             + self.max_blocks as u64 * 8
     }
 
@@ -339,11 +364,31 @@ impl TilePool {
         origin: [f64; 3],
         content: TileContent<'_>,
     ) -> Result<(), GpuError> {
-        let n = content.positions.len();
-        if content.colors.len() != n {
+        if content.colors.len() != content.positions.len() {
             return Err(GpuError::InvalidInput(format!(
-                "{n} positions but {} colours",
+                "{} positions but {} colours",
+                content.positions.len(),
                 content.colors.len()
+            )));
+        }
+        let words = encode_tile(content.positions, origin);
+        self.upload_encoded(ctx, key, origin, &words, content.colors)
+    }
+
+    /// [`upload`](Self::upload) of positions already encoded by [`encode_tile`].
+    pub fn upload_encoded(
+        &mut self,
+        ctx: &GpuContext,
+        key: u64,
+        origin: [f64; 3],
+        positions: &[u32],
+        colors: &[u32],
+    ) -> Result<(), GpuError> {
+        let n = colors.len();
+        if positions.len() != 3 * n {
+            return Err(GpuError::InvalidInput(format!(
+                "{} position words for {n} colours",
+                positions.len()
             )));
         }
         if n == 0 {
@@ -360,13 +405,16 @@ impl TilePool {
         let alloc = self
             .content
             .alloc(ctx, wgpu::BufferUsages::STORAGE, bytes)?;
-        let mut words: Vec<u32> = Vec::with_capacity(n * 4);
-        for p in content.positions {
-            words.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
-        }
-        words.extend_from_slice(content.colors);
-        ctx.queue
-            .write_buffer(alloc.buffer(), alloc.offset, bytemuck::cast_slice(&words));
+        ctx.queue.write_buffer(
+            alloc.buffer(),
+            alloc.offset,
+            bytemuck::cast_slice(positions),
+        );
+        ctx.queue.write_buffer(
+            alloc.buffer(),
+            alloc.offset + n as u64 * 12,
+            bytemuck::cast_slice(colors),
+        );
         let page = alloc.page();
         if let std::collections::hash_map::Entry::Vacant(slot) = self.page_groups.entry(page) {
             let chunk = self.output.chunks.first().ok_or_else(|| {
@@ -442,7 +490,7 @@ impl TilePool {
             };
             let need = t.count.div_ceil(page);
             let blocks = t.count.div_ceil(BLOCK);
-            if params.len() as u32 >= MAX_DRAWN_TILES
+            if params.len() as u32 >= self.max_tiles
                 || used + need > self.slots
                 || by_page.len() as u32 + blocks > self.max_blocks
             {
@@ -578,6 +626,15 @@ impl TilePool {
             pass.dispatch_workgroups(self.entry_count.div_ceil(64), 1, 1);
         }
     }
+}
+
+/// A tile's positions as the pool holds them: f32 xyz relative to `origin`, as bits.
+pub fn encode_tile(positions: &[[f64; 3]], origin: [f64; 3]) -> Vec<u32> {
+    let mut words = Vec::with_capacity(positions.len() * 3);
+    for p in positions {
+        words.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
+    }
+    words
 }
 
 /// The filter's r(p) of a point's tile-local f32 position (clod.wgsl `hash3`), in [0, 1).

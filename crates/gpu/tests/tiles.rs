@@ -57,7 +57,7 @@ fn tiles_drawn_whole_match_the_static_cloud_after_removals() {
     let set = &scene.set;
     let tiles = tiles_of(set, 3);
     assert!(tiles.len() > 10, "{} tiles", tiles.len());
-    let mut pool = TilePool::new(&ctx, set.len() as u64 * 2, 256).expect("pool");
+    let mut pool = TilePool::new(&ctx, set.len() as u64 * 2, 256, 1 << 20).expect("pool");
     // Junk tiles first, removed after the real ones are in: their ranges come back.
     let junk: Vec<[f64; 3]> = (0..5000).map(|i| [i as f64, 0.0, -1000.0]).collect();
     let junk_colors = vec![0xff00_00ffu32; junk.len()];
@@ -156,7 +156,7 @@ fn the_clod_filter_keeps_the_points_eq_9_keeps() {
     let ctx = context();
     let cam = camera();
     let mut rng = SplitMix64::new(11);
-    let mut pool = TilePool::new(&ctx, 1 << 18, 256).expect("pool");
+    let mut pool = TilePool::new(&ctx, 1 << 18, 256, 1 << 20).expect("pool");
     // Three tiles of 20 000 points at growing distances from the eye.
     let mut tiles = Vec::new();
     for (k, depth) in [12.0, 30.0, 70.0].into_iter().enumerate() {
@@ -238,7 +238,7 @@ fn the_clod_filter_keeps_the_points_eq_9_keeps() {
 #[test]
 fn a_full_output_leaves_the_last_tiles_out_and_says_so() {
     let ctx = context();
-    let mut pool = TilePool::new(&ctx, 1024, 256).expect("pool");
+    let mut pool = TilePool::new(&ctx, 1024, 256, 1 << 20).expect("pool");
     assert_eq!(pool.capacity(), 1024);
     let positions: Vec<[f64; 3]> = (0..600).map(|i| [i as f64 * 0.01, 0.0, 0.0]).collect();
     let colors = vec![0xffff_ffffu32; 600];

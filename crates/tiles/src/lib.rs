@@ -41,7 +41,7 @@ pub use content::{AttributeValues, ContentContext, PointAttribute, TilePoints, U
 pub use error::TilesError;
 pub use select::{plan, screen_space_error, TilePlan, TileView, WantedTile};
 pub use source::{resolve_uri, LocalSource, TileSource};
-pub use stream::{TileStream, TileStreamConfig, TileStreamStats};
+pub use stream::{TileData, TileStream, TileStreamConfig, TileStreamStats};
 pub use tileset::{ContentRef, LoadLimits, Refine, Tile, Tileset, TilesetFile};
 pub use transform::Transform;
 pub use volume::{BoundingVolume, OrientedBox, Sphere};

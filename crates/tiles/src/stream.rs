@@ -2,7 +2,9 @@
 //! (requests of tiles that left the view and had not started are cancelled), a fixed number of
 //! worker threads fetch and decode the most important requests first (the concurrency limit),
 //! and decoded tiles stay in RAM within a budget, the least recently drawn evicted first and
-//! the tiles of the latest plan never. What draws them (GPU residency) is the renderer's part.
+//! the tiles of the latest plan never. A renderer can have the workers turn contents into what
+//! it uploads ([`TileStream::with_prepare`]), so that its own thread only copies. What draws
+//! them (GPU residency) is the renderer's part.
 
 use crate::content::TilePoints;
 use crate::select::{TilePlan, WantedTile};
@@ -42,17 +44,31 @@ pub struct TileStreamStats {
     pub peak_in_flight: usize,
 }
 
-struct Held {
-    contents: Arc<Vec<TilePoints>>,
+/// What the stream holds of a tile: its decoded contents, or what a renderer made of them.
+pub trait TileData: Send + Sync + 'static {
+    /// Bytes it holds (counted against the RAM budget).
+    fn bytes(&self) -> u64;
+}
+
+impl TileData for Vec<TilePoints> {
+    fn bytes(&self) -> u64 {
+        bytes_of(self)
+    }
+}
+
+/// Turns a tile's decoded contents into what the stream holds of it.
+type Prepare<T> = dyn Fn(usize, Vec<TilePoints>) -> Result<T, crate::TilesError> + Send + Sync;
+
+struct Held<T> {
+    contents: Arc<T>,
     bytes: u64,
     last_used: u64,
 }
 
-#[derive(Default)]
-struct State {
+struct State<T> {
     queue: VecDeque<WantedTile>,
     in_flight: HashSet<usize>,
-    held: HashMap<usize, Held>,
+    held: HashMap<usize, Held<T>>,
     /// Tiles of the latest plan (drawn or requested): never evicted.
     protected: HashSet<usize>,
     frame: u64,
@@ -62,23 +78,39 @@ struct State {
     stop: bool,
 }
 
-struct Shared {
+impl<T> Default for State<T> {
+    fn default() -> Self {
+        Self {
+            queue: VecDeque::new(),
+            in_flight: HashSet::new(),
+            held: HashMap::new(),
+            protected: HashSet::new(),
+            frame: 0,
+            errors: Vec::new(),
+            stats: TileStreamStats::default(),
+            stop: false,
+        }
+    }
+}
+
+struct Shared<T> {
     tileset: Arc<Tileset>,
     source: Arc<dyn TileSource>,
     budget: u64,
-    state: Mutex<State>,
+    prepare: Box<Prepare<T>>,
+    state: Mutex<State<T>>,
     wake: Condvar,
 }
 
-impl Shared {
-    fn lock(&self) -> MutexGuard<'_, State> {
+impl<T> Shared<T> {
+    fn lock(&self) -> MutexGuard<'_, State<T>> {
         // A worker that panicked left the state consistent between operations: keep going.
         self.state.lock().unwrap_or_else(|p| p.into_inner())
     }
 }
 
-pub struct TileStream {
-    shared: Arc<Shared>,
+pub struct TileStream<T: TileData = Vec<TilePoints>> {
+    shared: Arc<Shared<T>>,
     workers: Vec<JoinHandle<()>>,
 }
 
@@ -94,16 +126,31 @@ fn bytes_of(contents: &[TilePoints]) -> u64 {
         .sum()
 }
 
-impl TileStream {
+impl TileStream<Vec<TilePoints>> {
+    /// A stream holding the decoded contents of each tile.
     pub fn new(
         tileset: Arc<Tileset>,
         source: Arc<dyn TileSource>,
         config: TileStreamConfig,
     ) -> std::io::Result<Self> {
+        Self::with_prepare(tileset, source, config, |_, contents| Ok(contents))
+    }
+}
+
+impl<T: TileData> TileStream<T> {
+    /// A stream whose workers also turn each tile's contents into what it holds of it
+    /// (`prepare(tile, contents)`; an error fails the tile like a read error).
+    pub fn with_prepare(
+        tileset: Arc<Tileset>,
+        source: Arc<dyn TileSource>,
+        config: TileStreamConfig,
+        prepare: impl Fn(usize, Vec<TilePoints>) -> Result<T, crate::TilesError> + Send + Sync + 'static,
+    ) -> std::io::Result<Self> {
         let shared = Arc::new(Shared {
             tileset,
             source,
             budget: config.ram_budget,
+            prepare: Box::new(prepare),
             state: Mutex::new(State::default()),
             wake: Condvar::new(),
         });
@@ -157,8 +204,8 @@ impl TileStream {
         self.shared.lock().held.contains_key(&tile)
     }
 
-    /// The decoded contents of `tile`, if held.
-    pub fn get(&self, tile: usize) -> Option<Arc<Vec<TilePoints>>> {
+    /// What is held of `tile`, if anything.
+    pub fn get(&self, tile: usize) -> Option<Arc<T>> {
         self.shared
             .lock()
             .held
@@ -195,7 +242,7 @@ impl TileStream {
     }
 }
 
-impl Drop for TileStream {
+impl<T: TileData> Drop for TileStream<T> {
     fn drop(&mut self) {
         self.shared.lock().stop = true;
         self.shared.wake.notify_all();
@@ -205,7 +252,7 @@ impl Drop for TileStream {
     }
 }
 
-fn worker(sh: &Shared) {
+fn worker<T: TileData>(sh: &Shared<T>) {
     loop {
         let tile = {
             let mut st = sh.lock();
@@ -221,12 +268,15 @@ fn worker(sh: &Shared) {
                 st = sh.wake.wait(st).unwrap_or_else(|p| p.into_inner());
             }
         };
-        let read = sh.tileset.read_tile(sh.source.as_ref(), tile);
+        let read = sh
+            .tileset
+            .read_tile(sh.source.as_ref(), tile)
+            .and_then(|contents| (sh.prepare)(tile, contents));
         let mut st = sh.lock();
         st.in_flight.remove(&tile);
         match read {
             Ok(contents) => {
-                let bytes = bytes_of(&contents);
+                let bytes = contents.bytes();
                 let last_used = st.frame;
                 st.held.insert(
                     tile,
@@ -249,7 +299,7 @@ fn worker(sh: &Shared) {
 }
 
 /// Drops the least recently drawn tiles outside the latest plan until the budget holds.
-fn evict(st: &mut State, budget: u64) {
+fn evict<T>(st: &mut State<T>, budget: u64) {
     if st.stats.bytes <= budget {
         return;
     }

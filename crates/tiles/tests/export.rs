@@ -304,6 +304,7 @@ fn export_to(store: &Store, out: &Path, refine: Refine, points_per_tile: u64) ->
         points_per_tile,
         ram_budget: 4 << 20,
         force: false,
+        ..Default::default()
     };
     export(store, out, &config, &|_| {}).unwrap()
 }
@@ -414,6 +415,7 @@ fn output_is_the_same_for_any_thread_count_and_ram_budget() {
             points_per_tile: 3_000,
             ram_budget,
             force: false,
+            ..Default::default()
         };
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -527,6 +529,42 @@ fn a_store_without_crs_is_local_and_says_so() {
         extras["placement"].as_str().unwrap().contains("local"),
         "{extras}"
     );
+}
+
+#[test]
+fn local_placement_and_no_metadata_keep_store_coordinates_and_colours_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = build_store_with_crs(
+        &testdata("autzen_trim.laz"),
+        &dir.path().join("s.pointlet"),
+        Some(2994),
+    );
+    let out = dir.path().join("tiles");
+    let config = ExportConfig {
+        points_per_tile: 5_000,
+        ram_budget: 4 << 20,
+        local: true,
+        metadata: false,
+        ..Default::default()
+    };
+    let summary = export(&store, &out, &config, &|_| {}).unwrap();
+    assert_eq!(summary.georeference.epsg, None, "asked to stay local");
+    assert!(summary.georeference.note.contains("--local"));
+    let (tileset, source) = Tileset::open(&out.join("tileset.json")).unwrap();
+    let mut points = 0;
+    let bounds = store.header().bounds;
+    for t in 0..tileset.tiles.len() {
+        for c in tileset.read_tile(&source, t).unwrap() {
+            assert!(c.attributes.is_empty(), "metadata in {}: {:?}", c.uri, c.attributes.len());
+            assert!(c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]), "colours kept");
+            for p in &c.positions {
+                // Store coordinates (feet), within the u16 quantization of a leaf.
+                assert!((0..3).all(|a| p[a] >= bounds.min[a] - 1.0 && p[a] <= bounds.max[a] + 1.0));
+            }
+            points += c.len();
+        }
+    }
+    assert_eq!(points as u64, store.header().points);
 }
 
 #[test]

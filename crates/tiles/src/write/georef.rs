@@ -99,10 +99,10 @@ fn vertical_unit(v: &CrsId) -> Option<f64> {
     }
 }
 
-/// The georeference of a store with CRS records `crs` and bounds `bounds` (store units).
-pub fn georeference(crs: Option<&Crs>, bounds: &pointlet_core::Aabb) -> Georeference {
+/// A local tileset of a store with bounds `bounds`: its own coordinates, `why` said.
+pub fn local_frame(bounds: &pointlet_core::Aabb, why: &str) -> Georeference {
     let origin = bounds.center();
-    let local = |why: String| Georeference {
+    Georeference {
         root_transform: Transform::from_translation(origin),
         metres_per_unit: [1.0; 3],
         origin,
@@ -110,7 +110,13 @@ pub fn georeference(crs: Option<&Crs>, bounds: &pointlet_core::Aabb) -> Georefer
         note: format!(
             "{why}: the tileset is local (the store's own coordinates, not placed on the globe)"
         ),
-    };
+    }
+}
+
+/// The georeference of a store with CRS records `crs` and bounds `bounds` (store units).
+pub fn georeference(crs: Option<&Crs>, bounds: &pointlet_core::Aabb) -> Georeference {
+    let local = |why: String| local_frame(bounds, &why);
+    let origin = bounds.center();
     let Some(crs) = crs else {
         return local("the store has no CRS".into());
     };

@@ -85,8 +85,8 @@ pub struct ExportLayout {
 
 impl ExportLayout {
     /// The layout for a store with `header`; `eight_bit_color` when its colours are 8-bit
-    /// values in LAS's 16-bit fields.
-    pub fn new(header: &StoreHeader, eight_bit_color: bool) -> ExportLayout {
+    /// values in LAS's 16-bit fields; without `metadata`, positions and colours only.
+    pub fn new(header: &StoreHeader, eight_bit_color: bool, metadata: bool) -> ExportLayout {
         let mut kinds = vec![StreamKind::Position];
         let mut properties = Vec::new();
         let mut notes = Vec::new();
@@ -103,8 +103,16 @@ impl ExportLayout {
             no_data: None,
             description: None,
         };
+        if !metadata {
+            notes.push(
+                "per-point metadata left out (--no-metadata): positions and colours only".into(),
+            );
+        }
         for (kind, _) in StreamKind::present(&header.layout) {
             use StreamKind::*;
+            if !metadata && !matches!(kind, Position | Rgb) {
+                continue;
+            }
             let (component, size, storage) = match kind {
                 Position | Rgb | Waveform | ExtraBytes | Returns => ("", 0, Storage::Attribute),
                 Intensity | PointSourceId | Nir => ("UINT16", 2, Storage::Attribute),

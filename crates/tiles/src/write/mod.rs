@@ -31,7 +31,7 @@ use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
-pub use georef::{georeference, Georeference, Projection};
+pub use georef::{georeference, local_frame, Georeference, Projection};
 
 /// Deepest tile level; cells this deep are leaves whatever their count (duplicate points).
 const MAX_DEPTH: u32 = 24;
@@ -75,6 +75,10 @@ pub struct ExportConfig {
     pub ram_budget: u64,
     /// Replace an output folder that is not empty.
     pub force: bool,
+    /// Keep the store's coordinates even when its CRS could place the tileset in ECEF.
+    pub local: bool,
+    /// Every attribute as per-point metadata (else positions and colours only).
+    pub metadata: bool,
 }
 
 impl Default for ExportConfig {
@@ -84,6 +88,8 @@ impl Default for ExportConfig {
             points_per_tile: 50_000,
             ram_budget: 1 << 30,
             force: false,
+            local: false,
+            metadata: true,
         }
     }
 }
@@ -168,9 +174,13 @@ pub fn export(
     let partial = PartialDir::create(out)?;
 
     let eight_bit_color = header.layout.rgb && colors_are_8_bit(store)?;
-    let layout = ExportLayout::new(header, eight_bit_color);
+    let layout = ExportLayout::new(header, eight_bit_color, config.metadata);
     let crs = Crs::from_vlrs(&header.vlrs);
-    let georeference = georeference(crs.as_ref(), &header.bounds);
+    let georeference = if config.local {
+        local_frame(&header.bounds, "asked for (--local)")
+    } else {
+        georeference(crs.as_ref(), &header.bounds)
+    };
     let q = header.quantization;
     let raw = |v: f64, a: usize| ((v - q.offset[a]) / q.scale[a]).round() as i64;
     let root_lo: [i64; 3] = std::array::from_fn(|a| raw(header.bounds.min[a], a));
