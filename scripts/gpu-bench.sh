@@ -237,8 +237,9 @@ case "$phase" in
     find "$tiles" -type f -exec cat {} + >/dev/null
     for round in $(seq 1 "${ROUNDS:-1}"); do
       for cfg in ${STORE_CONFIGS:-1 adaptive}; do
+        name=$(echo "$cfg" | tr ':' '-')
         "$bin" bench "$store" "${common[@]}" --bucket 25M --point-size "$cfg" \
-          --json "$out/store-$cfg-$round.json" 2>&1 | tee "$out/store-$cfg-$round.txt"
+          --json "$out/store-$name-$round.json" 2>&1 | tee "$out/store-$name-$round.txt"
       done
       for sse in ${SSES:-16 4 1}; do
         "$bin" bench "$tiles/tileset.json" "${common[@]}" --max-sse "$sse" --point-size 1 \

@@ -349,3 +349,40 @@ fn an_ecef_tileset_loads_in_cesium_where_pointlet_renders_the_store() {
         dir.path(),
     );
 }
+
+/// Large pointlets and small tiles: the root's rate takes under one point of each pointlet,
+/// which once left the root empty, every child estimated at zero points and made leaves of
+/// whole octants (a 1 G-point store became 4 tiles of 250 M points).
+#[test]
+fn small_rates_of_large_pointlets_still_build_a_deep_tree() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let store = dir.path().join("g.pointlet");
+    ok(&[
+        "generate",
+        "--points",
+        "100K",
+        "--pointlets",
+        "300",
+        "-o",
+        store.to_str().expect("utf-8"),
+    ]);
+    let out = dir.path().join("tiles");
+    let said = ok_stderr(&[
+        "export-3dtiles",
+        store.to_str().expect("utf-8"),
+        "-o",
+        out.to_str().expect("utf-8"),
+        "--points-per-tile",
+        "100",
+    ]);
+    let tiles: u64 = said
+        .split("into ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no tile count in:\n{said}"));
+    assert!(
+        tiles > 300,
+        "{tiles} tiles for 100 K points at 100 a tile:\n{said}"
+    );
+}

@@ -555,8 +555,16 @@ fn local_placement_and_no_metadata_keep_store_coordinates_and_colours_only() {
     let bounds = store.header().bounds;
     for t in 0..tileset.tiles.len() {
         for c in tileset.read_tile(&source, t).unwrap() {
-            assert!(c.attributes.is_empty(), "metadata in {}: {:?}", c.uri, c.attributes.len());
-            assert!(c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]), "colours kept");
+            assert!(
+                c.attributes.is_empty(),
+                "metadata in {}: {:?}",
+                c.uri,
+                c.attributes.len()
+            );
+            assert!(
+                c.colors.iter().any(|rgba| rgba[..3] != [255, 255, 255]),
+                "colours kept"
+            );
             for p in &c.positions {
                 // Store coordinates (feet), within the u16 quantization of a leaf.
                 assert!((0..3).all(|a| p[a] >= bounds.min[a] - 1.0 && p[a] <= bounds.max[a] + 1.0));

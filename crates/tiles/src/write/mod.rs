@@ -2,9 +2,10 @@
 //!
 //! The tree is an octree over the store's integer (quantized) grid, so every point falls in
 //! exactly one cell at each depth without floating-point ties. A point's place in its
-//! pointlet's shuffled order is a uniform random number u = (j + ½)/count, independent of where
-//! the point lies, so "the points of a cell with u < r" is a uniform subsample of the cell of
-//! rate r, read as a prefix of each pointlet. Each tile gets a rate r: min(1, T / its estimated
+//! pointlet's shuffled order is a uniform random number u = (j + φ)/count, independent of where
+//! the point lies (φ in (0, 1) is a hash of the pointlet's index, so that rates below one point
+//! per pointlet still take r · count points of each on average), so "the points of a cell with
+//! u < r" is a uniform subsample of the cell of rate r, read as a prefix of each pointlet. Each tile gets a rate r: min(1, T / its estimated
 //! point count), never below its parent's; leaves get 1. With `ADD` a tile holds its cell's
 //! points with u in [r(parent), r), so a point is in exactly one tile of its path; with
 //! `REPLACE` it holds u < r, so a tile alone shows its cell at its level of detail and the
@@ -347,8 +348,9 @@ impl Context<'_> {
         for &i in &task.pointlets {
             let entry = store.pointlets()[i as usize];
             reach = reach.union(&entry.aabb);
-            let j_lo = prefix(task.r_lo, entry.count);
-            let j_hi = prefix(task.r_hi, entry.count);
+            let phase = phase_of(i);
+            let j_lo = prefix(task.r_lo, entry.count, phase);
+            let j_hi = prefix(task.r_hi, entry.count, phase);
             let from = match self.config.refine {
                 Refine::Add => j_lo,
                 Refine::Replace => 0,
@@ -483,11 +485,19 @@ impl Context<'_> {
 }
 
 /// How many of a pointlet's `count` shuffled points have u = (j + ½)/count below `rate`.
-fn prefix(rate: f64, count: u32) -> u32 {
+/// Points j of a pointlet of `count` with u = (j + phase)/count < rate.
+fn prefix(rate: f64, count: u32, phase: f64) -> u32 {
     if rate >= 1.0 {
         return count;
     }
-    ((rate * count as f64 - 0.5).ceil().max(0.0) as u32).min(count)
+    ((rate * count as f64 - phase).ceil().max(0.0) as u32).min(count)
+}
+
+/// φ of pointlet `i`: in (0, 1), fixed by the index alone (the output stays the same for any
+/// number of threads).
+fn phase_of(i: u32) -> f64 {
+    let h = pointlet_core::shuffle::SplitMix64::new(0x7113_5eed ^ u64::from(i)).next_u64();
+    ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64
 }
 
 fn position(b: &[u8]) -> [i32; 3] {
