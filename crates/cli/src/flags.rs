@@ -34,7 +34,7 @@ const TILES: [&str; 3] = ["max_sse", "no_clod", "tile_requests"];
 /// What a streamed tileset does not take: the store's LoD and pages, the progressive path's
 /// loading, point-file reading, in-memory order and encodings (tiles are drawn as full16),
 /// and the store-only measurements of `bench`.
-const NOT_TILES: [&str; 19] = [
+const NOT_TILES: [&str; 18] = [
     "bucket",
     "temporal_reuse",
     "upload_per_frame",
@@ -53,7 +53,6 @@ const NOT_TILES: [&str; 19] = [
     "buckets",
     "path_quality",
     "warmup",
-    "converge_timeout",
 ];
 
 /// A streamed tileset: its own flags, none of the other inputs'.
@@ -122,7 +121,12 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             let also_progressive = ["vram_budget", "max_frames"];
             drawing(given, a.input(), &a.draw, &store_only, &also_progressive)
         }
+        Command::View(a) if crate::tiles_cmd::is_streamed(&a.inputs) => {
+            camera(given, &a.camera)?;
+            tileset(given, a.input(), &a.draw)
+        }
         Command::View(a) => {
+            given.refuse(&TILES, "a tileset", input_kind(a.input()))?;
             camera(given, &a.camera)?;
             let store_only = ["vram_budget", "ram_budget", "bucket", "converge_timeout"];
             if !crate::progressive_cmd::is_progressive(a.input(), &a.draw) {

@@ -2,16 +2,17 @@
 //! arguments of `render` so that both show the same image of the same view.
 
 use crate::view_args::ColorArg;
-use crate::view_args::{CameraArgs, DrawArgs};
+use crate::view_args::{CameraArgs, DrawArgs, TileArgs, VirtualArgs};
 use anyhow::Result;
 use pointlet_viewer::{Automation, Input, StoreBudgets, ViewerConfig};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A store (streamed within the budgets), any point file or a tileset (drawn while it
-    /// loads); several are drawn together in one coordinate frame, each with a visibility
-    /// toggle (as one point file: stores among them are read whole); without one, the
+    /// A store (streamed within the budgets), a tileset (`tileset.json` or its URL: streamed
+    /// by screen-space error within the budgets) or any point file (drawn while it loads);
+    /// several are drawn together in one coordinate frame, each with a visibility toggle (as
+    /// one point file: stores and tilesets among them are read whole); without one, the
     /// built-in demo scene.
     pub inputs: Vec<PathBuf>,
     /// Window width in pixels.
@@ -27,11 +28,11 @@ pub struct Args {
     /// Points of the demo scene (without INPUT).
     #[arg(long, default_value_t = crate::scene::DEMO_POINTS, value_parser = crate::parse_count_arg)]
     pub demo_points: u64,
-    /// GPU memory for a store's points, tables and frame, or a point file's shuffled buffer
-    /// (a larger file shows a uniform subset).
+    /// GPU memory for a store's points, tables and frame, a tileset's tiles and their output,
+    /// or a point file's shuffled buffer (a larger file shows a uniform subset).
     #[arg(long, default_value = "2GiB", value_parser = crate::parse_bytes_arg)]
     pub vram_budget: u64,
-    /// RAM for a store's cached points.
+    /// RAM for a store's cached points or a tileset's decoded tiles.
     #[arg(long, default_value = "4GiB", value_parser = crate::parse_bytes_arg)]
     pub ram_budget: u64,
     /// The LoD's point bucket B for stores (points drawn per moving frame).
@@ -58,6 +59,8 @@ pub struct Args {
     pub target_fps: Option<f64>,
     #[command(flatten)]
     pub read: crate::load::ReadArgs,
+    #[command(flatten)]
+    pub tiles: TileArgs,
 }
 
 impl Args {
@@ -65,11 +68,27 @@ impl Args {
     pub fn input(&self) -> Option<&Path> {
         crate::load::drawn_input(&self.inputs)
     }
+
+    /// View's `--vram-budget` and `--ram-budget` as the budgets a tileset's configuration
+    /// reads ([`TileArgs::config`]); the store-only fields keep their defaults.
+    fn tile_budgets(&self) -> Result<VirtualArgs> {
+        use clap::{Args as _, FromArgMatches as _};
+        let defaults =
+            VirtualArgs::augment_args(clap::Command::new("view")).try_get_matches_from(["view"])?;
+        let mut budgets = VirtualArgs::from_arg_matches(&defaults)?;
+        budgets.vram_budget = Some(self.vram_budget);
+        budgets.ram_budget = Some(self.ram_budget);
+        Ok(budgets)
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
     let progressive = crate::progressive_cmd::is_progressive(args.input(), &args.draw);
-    let input = match &args.inputs[..] {
+    let mut input = match &args.inputs[..] {
+        [p] if crate::tiles_cmd::is_streamed(&args.inputs) => Input::Tileset {
+            path: p.clone(),
+            config: args.tiles.config(&args.tile_budgets()?, None),
+        },
         [p] if crate::load::is_store_path(p) && !progressive => Input::Store(p.clone()),
         [] => Input::Demo {
             points: args.demo_points,
@@ -84,6 +103,9 @@ pub fn run(args: Args) -> Result<()> {
     let color = match (&args.draw.color, &input) {
         (None, _) => None,
         (Some(ColorArg::Mode(m)), _) => Some(*m),
+        (Some(ColorArg::Extra(name)), Input::Tileset { .. }) => {
+            anyhow::bail!("a tileset has no LAS extra-bytes attribute '{name}' to colour by")
+        }
         (Some(asked), Input::Store(path)) => {
             let store = crate::load::open_store(path, "view")?;
             Some(crate::scene::store_color(Some(asked), &store)?)
@@ -104,6 +126,10 @@ pub fn run(args: Args) -> Result<()> {
             anyhow::bail!("the demo scene has no extra-bytes attributes to colour by")
         }
     };
+    // The tileset scene encodes its tiles' colours itself: the colouring goes with its config.
+    if let Input::Tileset { config, .. } = &mut input {
+        config.color = color;
+    }
     let camera_args = args.camera.clone();
     let config = ViewerConfig {
         input,

@@ -304,3 +304,74 @@ fn viewer_of_a_store_converges_to_the_render_of_it() {
         .count();
     assert!(lit > 0, "the 106 points are drawn");
 }
+
+#[test]
+fn viewer_of_a_tileset_streams_it_to_the_render_of_it() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tileset = data("tiles/simple_pnts/tileset.json");
+    let (viewed, rendered) = (dir.path().join("view.png"), dir.path().join("render.png"));
+    let size = ["--width", "320", "--height", "240"];
+    // Every tile down to full detail, every point one pixel, within budgets lavapipe allocates
+    // quickly.
+    let full = [
+        "--max-sse",
+        "0",
+        "--point-size",
+        "1",
+        "--vram-budget",
+        "64MiB",
+        "--ram-budget",
+        "64MiB",
+    ];
+    let mut view_args = vec![s(&tileset), "--frames", "2", "--screenshot", s(&viewed)];
+    view_args.extend(size);
+    view_args.extend(full);
+    let err = x.view(&view_args);
+    // Streamed, not read whole as a point file drawn while it loads.
+    assert!(err.contains("streamed tiles"), "{err}");
+    let mut render_args = vec!["render", s(&tileset), "-o", s(&rendered)];
+    render_args.extend(size);
+    render_args.extend(full);
+    let out = common::ok_stderr(&render_args);
+    assert!(out.contains("tiles drawn"), "render streamed it too: {out}");
+    let (a, b) = (pixels(&viewed), pixels(&rendered));
+    assert_eq!((a.0, a.1), (b.0, b.1), "image sizes");
+    let lit =
+        |rgba: &[u8]| -> Vec<bool> { rgba.chunks_exact(4).map(|p| p[..3] != [0, 0, 0]).collect() };
+    let (la, lb) = (lit(&a.2), lit(&b.2));
+    let covered = lb.iter().filter(|l| **l).count();
+    assert!(
+        covered > 200,
+        "render shows the tileset ({covered} lit pixels)"
+    );
+    let differ = la.iter().zip(&lb).filter(|(p, q)| p != q).count();
+    assert_eq!(differ, 0, "{differ} pixels lit in one picture only");
+    assert_eq!(a.2, b.2, "the same colours");
+}
+
+#[test]
+fn viewer_flags_of_tilesets_apply_to_tilesets_only() {
+    let tileset = data("tiles/simple_pnts/tileset.json");
+    common::usage_fails(
+        &["view", s(&data("simple.las")), "--max-sse", "3"],
+        &["--max-sse applies to a tileset only"],
+    );
+    common::usage_fails(&["view", "--no-clod"], &["--no-clod", "demo scene"]);
+    common::usage_fails(
+        &["view", s(&tileset), "--bucket", "3M"],
+        &["--bucket", "not to a tileset"],
+    );
+    common::usage_fails(
+        &["view", s(&tileset), "--target-fps", "30"],
+        &["--target-fps", "not to a tileset"],
+    );
+    common::usage_fails(
+        &["view", s(&tileset), "--raster", "hw-points"],
+        &["hw-points", "tileset"],
+    );
+    common::fails(
+        &["view", s(&tileset), "--color", "extra:Time"],
+        &["tileset has no LAS extra-bytes attribute 'Time'"],
+    );
+}

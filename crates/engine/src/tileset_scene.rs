@@ -6,7 +6,7 @@
 //! rasterizers draw the plan.
 
 use crate::EngineError;
-use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale};
+use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale, DefaultColor};
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::size::format_bytes;
 use pointlet_core::{Aabb, Camera, PointBatch, PointLayout};
@@ -129,10 +129,14 @@ fn encode(contents: &[TilePoints], rgb: bool, scale: &ColorScale) -> EncodedTile
 pub struct TilesetScene {
     name: String,
     tileset: Arc<Tileset>,
+    /// Where tiles are read from: a recolouring starts fetchers of its own on it.
+    source: Arc<dyn TileSource>,
     stream: TileStream<EncodedTile>,
     pool: TilePool,
     config: TilesetConfig,
     scale: ColorScale,
+    /// The points the colouring is fitted on (the first tile with points).
+    sample: PointBatch,
     bounds: Aabb,
     resident: HashMap<usize, Resident>,
     /// Tiles whose content could not be read or drawn (reported once, then left out).
@@ -180,13 +184,7 @@ impl TilesetScene {
         }
         let mode = match config.color {
             Some(m) if m.available_in(&layout) => m,
-            Some(m) => {
-                return Err(EngineError::Config(format!(
-                    "{}: the tileset has no {} attribute to colour by",
-                    path.display(),
-                    m.name()
-                )))
-            }
+            Some(m) => return Err(no_attribute(&path.display().to_string(), m)),
             None => default_color(&layout, &[&batch]).mode,
         };
         let z = if bounds.is_empty() {
@@ -207,24 +205,16 @@ impl TilesetScene {
                 format_bytes(pool.gpu_bytes())
             )));
         }
-        let rgb = layout.rgb;
-        let stream = TileStream::with_prepare(
-            Arc::clone(&tileset),
-            source,
-            TileStreamConfig {
-                workers: config.workers,
-                ram_budget: config.ram_budget,
-            },
-            move |_, contents| Ok(encode(&contents, rgb, &scale)),
-        )
-        .map_err(|e| EngineError::Config(format!("starting the tile fetchers: {e}")))?;
+        let stream = start_stream(&tileset, &source, &config, layout.rgb, scale)?;
         Ok(Self {
             name: path.display().to_string(),
             tileset,
+            source,
             stream,
             pool,
             config,
             scale,
+            sample: batch,
             bounds,
             resident: HashMap::new(),
             failed: HashSet::new(),
@@ -272,6 +262,78 @@ impl TilesetScene {
     /// Points of the tiles uploaded so far (tiles uploaded again count again).
     pub fn points_seen(&self) -> u64 {
         self.points_seen
+    }
+
+    pub fn config(&self) -> &TilesetConfig {
+        &self.config
+    }
+
+    /// The attributes the tiles are coloured by: RGB when the first tile with points has
+    /// colours other than white (intensity and classification are always there, 0 where the
+    /// tiles lack them).
+    pub fn layout(&self) -> PointLayout {
+        self.sample.layout
+    }
+
+    pub fn color_scale(&self) -> ColorScale {
+        self.scale
+    }
+
+    /// The colouring chosen when none is asked for, and why (from the first tile with points).
+    pub fn default_color(&self) -> DefaultColor {
+        default_color(&self.sample.layout, &[&self.sample])
+    }
+
+    /// The scale of `mode` fitted as [`open`](Self::open) fits it: ranges from the first tile
+    /// with points, elevation over the root volume's heights.
+    pub fn fitted(&self, mode: ColorMode) -> Result<ColorScale, EngineError> {
+        if !mode.available_in(&self.sample.layout) {
+            return Err(no_attribute(&self.name, mode));
+        }
+        let z = if self.bounds.is_empty() {
+            [0.0, 1.0]
+        } else {
+            [self.bounds.min[2], self.bounds.max[2]]
+        };
+        Ok(ColorScale::fit_in(
+            mode,
+            &[&self.sample],
+            z,
+            &ExtraAttributes::default(),
+        ))
+    }
+
+    /// Colours by `mode`, its scale fitted as [`open`](Self::open) fits it.
+    pub fn recolor(&mut self, mode: ColorMode) -> Result<(), EngineError> {
+        let scale = self.fitted(mode)?;
+        self.set_color_scale(scale)
+    }
+
+    /// Colours by `scale` as it is (a range or ramp edited by hand). Colours are encoded by the
+    /// fetch workers, so every tile is fetched and uploaded again: the GPU's tiles and those
+    /// held in RAM are dropped, and new workers encode with `scale` (the old ones are joined,
+    /// which waits for the tiles they are fetching).
+    pub fn set_color_scale(&mut self, scale: ColorScale) -> Result<(), EngineError> {
+        if !scale.mode.available_in(&self.sample.layout) {
+            return Err(no_attribute(&self.name, scale.mode));
+        }
+        if scale == self.scale {
+            return Ok(());
+        }
+        // Started before the old workers go: if it fails, the scene keeps its colouring.
+        let stream = start_stream(
+            &self.tileset,
+            &self.source,
+            &self.config,
+            self.sample.layout.rgb,
+            scale,
+        )?;
+        self.stream = stream;
+        for (tile, _) in self.resident.drain() {
+            self.pool.remove(tile as u64);
+        }
+        self.scale = scale;
+        Ok(())
     }
 
     fn drawable(&self, t: usize) -> bool {
@@ -451,6 +513,33 @@ impl TilesetScene {
         }
         fits(&self.pool)
     }
+}
+
+fn no_attribute(tileset: &str, mode: ColorMode) -> EngineError {
+    EngineError::Config(format!(
+        "{tileset}: the tileset has no {} attribute to colour by",
+        mode.name()
+    ))
+}
+
+/// The fetch workers of `tileset`, each tile encoded for the GPU coloured by `scale`.
+fn start_stream(
+    tileset: &Arc<Tileset>,
+    source: &Arc<dyn TileSource>,
+    config: &TilesetConfig,
+    rgb: bool,
+    scale: ColorScale,
+) -> Result<TileStream<EncodedTile>, EngineError> {
+    TileStream::with_prepare(
+        Arc::clone(tileset),
+        Arc::clone(source),
+        TileStreamConfig {
+            workers: config.workers,
+            ram_budget: config.ram_budget,
+        },
+        move |_, contents| Ok(encode(&contents, rgb, &scale)),
+    )
+    .map_err(|e| EngineError::Config(format!("starting the tile fetchers: {e}")))
 }
 
 /// The tiles a settled view of `view` draws (every tile loaded).

@@ -11,7 +11,9 @@ use crate::{Automation, Input, ViewerConfig, ViewerError};
 use pointlet_core::color::{default_color_of_parts, ColorMode, DefaultColor};
 use pointlet_core::PointLayout;
 use pointlet_engine::progressive::{LoadColor, LoadConfig, ProgressiveLoad};
-use pointlet_engine::{ProgressiveConfig, ProgressiveScene, SceneConfig, VirtualScene};
+use pointlet_engine::{
+    ProgressiveConfig, ProgressiveScene, SceneConfig, TilesetConfig, TilesetScene, VirtualScene,
+};
 use pointlet_gpu::{AdapterRequest, GpuContext, RasterVariant};
 use std::sync::Arc;
 use std::time::Instant;
@@ -71,7 +73,7 @@ pub fn run(config: ViewerConfig) -> Result<(), ViewerError> {
             },
             config.order,
         )?),
-        Input::Store(_) => None,
+        Input::Store(_) | Input::Tileset { .. } => None,
     };
     let event_loop = open_event_loop()?;
     let mut app = App {
@@ -223,6 +225,21 @@ impl App {
                 )
                 .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?;
                 (Content::Store(Box::new(scene)), color)
+            }
+            (Input::Tileset { path, config }, _) => {
+                // The tileset's own colour, else the viewer's (both come from --color).
+                let config = TilesetConfig {
+                    color: config.color.or(c.color),
+                    ..config.clone()
+                };
+                let asked = config.color;
+                let scene = TilesetScene::open(&ctx, path, config)
+                    .map_err(|e| ViewerError::Load(format!("opening {}: {e}", path.display())))?;
+                if asked.is_none() {
+                    eprintln!("note: {}: {}", scene.name(), scene.default_color());
+                }
+                let color = scene.color_mode();
+                (Content::Tiles(Box::new(scene)), color)
             }
             (Input::Files { .. }, None) => {
                 let Some((load, mut config)) = self.loading.take() else {
@@ -737,8 +754,15 @@ impl Running {
             .first_points_s
             .map(|t| format!("; the first points were on screen {t:.3} s after starting"))
             .unwrap_or_default();
+        let tiles = self
+            .view
+            .drawn
+            .tiles
+            .as_ref()
+            .map(|r| format!(" of {} streamed tiles", r.drawn_tiles))
+            .unwrap_or_default();
         eprintln!(
-            "viewed {} frames of {} ({} points drawn) with {} on {}{first}",
+            "viewed {} frames of {} ({} points drawn{tiles}) with {} on {}{first}",
             self.frames,
             self.view.content.name(),
             self.view.drawn.points,

@@ -1,12 +1,14 @@
 //! `pointlet view`: an interactive window on winit + a wgpu surface with an egui overlay,
 //! drawing through the same `Renderer` as `pointlet render` (stores through the virtualized
-//! `VirtualScene`, other inputs held in memory) and copying the image to the window.
+//! `VirtualScene`, a tileset streamed through `TilesetScene`, point files drawn while they load
+//! or held in memory) and copying the image to the window.
 //!
 //! Modules, one job each: [`navigation`] (input → f64 camera), [`tools`] (measure, bookmarks,
 //! path recording), [`colors`] (colouring state, legend), [`memory`] (in-memory points),
-//! [`content`] (memory or store behind one interface), [`view`] (the window-independent viewer
-//! state and frame), [`commands`] (actions of keys and buttons), [`ui`] (the overlay),
-//! [`present`] (image + overlay onto the surface), `app` (the winit event loop).
+//! [`content`] (memory, store, loading file or tileset behind one interface), [`view`] (the
+//! window-independent viewer state and frame), [`commands`] (actions of keys and buttons),
+//! [`ui`] (the overlay), [`present`] (image + overlay onto the surface), `app` (the winit
+//! event loop).
 
 mod app;
 pub mod colors;
@@ -53,6 +55,12 @@ pub enum Input {
     Files {
         paths: Vec<PathBuf>,
         read: pointlet_io::ReadOptions,
+    },
+    /// A 3D Tiles tileset (`tileset.json`, local or a URL), streamed by screen-space error
+    /// through `TilesetScene` within `config`'s budgets.
+    Tileset {
+        path: PathBuf,
+        config: pointlet_engine::TilesetConfig,
     },
     /// The built-in synthetic scene.
     Demo { points: u64, seed: u64 },

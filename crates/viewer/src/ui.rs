@@ -89,11 +89,14 @@ pub fn draw(root: &mut egui::Ui, view: &mut View, ui: &mut UiState, now: f64) ->
 fn header(p: &mut egui::Ui, view: &View) {
     p.heading("Pointlet");
     p.label(view.content.name());
-    p.label(format!(
-        "{} points · {}",
-        view.content.points(),
-        view.ctx.describe()
-    ));
+    let points = match &view.content {
+        // A tileset's total is known once every tile was read: its tiles and the points so far.
+        crate::content::Content::Tiles(t) => {
+            format!("{} tiles, {} points loaded", t.tiles(), t.points_seen())
+        }
+        content => format!("{} points", content.points()),
+    };
+    p.label(format!("{points} · {}", view.ctx.describe()));
     p.horizontal(|h| {
         h.label("F1 / ? shows the keys");
     });
@@ -460,27 +463,33 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
                 c.ui_ms, c.draw_ms, c.present_ms
             ));
             if let Some(t) = view.stats.gpu {
-                let first = if view.drawn.progressive.is_some() {
-                    "reproject"
+                let (first, fill) = if view.drawn.progressive.is_some() {
+                    ("reproject", "fill")
+                } else if view.drawn.tiles.is_some() {
+                    // A tileset's first pass is the continuous-LoD filter of its tiles.
+                    ("filter", "raster")
                 } else {
-                    "LoD"
+                    ("LoD", "raster")
                 };
-                let fill = if first == "LoD" { "raster" } else { "fill" };
                 w.label(format!(
                     "GPU: {first} {:.2} · {fill} {:.2} · screen {:.2} ms",
                     t.lod_ms, t.raster_ms, t.screen_ms
                 ));
             }
-            w.label(format!(
-                "{} of {} points drawn{}",
-                view.drawn.points,
-                view.content.points(),
-                if view.drawn.converged {
-                    ""
-                } else {
-                    " (refining)"
-                }
-            ));
+            let refining = if view.drawn.converged {
+                ""
+            } else {
+                " (refining)"
+            };
+            let drawn = view.drawn.points;
+            w.label(match &view.content {
+                // A tileset's total is not known; coarse tiles' points are uploaded too.
+                crate::content::Content::Tiles(t) => format!(
+                    "{drawn} points drawn, {} uploaded{refining}",
+                    t.points_seen()
+                ),
+                content => format!("{drawn} of {} points drawn{refining}", content.points()),
+            });
             let target =
                 pointlet_gpu::RenderTarget::bytes_for(view.target.width, view.target.height);
             let vram = view.content.gpu_bytes() + target;
@@ -524,6 +533,9 @@ fn stats(ctx: &egui::Context, view: &View, ui: &mut UiState) {
                 }
                 (crate::content::Content::Progressive(scene), _) => {
                     progressive_status(w, scene, view.drawn.progressive.as_ref(), vram);
+                }
+                (crate::content::Content::Tiles(scene), _) => {
+                    tiles_status(w, scene, view.drawn.tiles.as_ref(), vram);
                 }
             }
         });
@@ -581,6 +593,39 @@ fn progressive_status(
     if let Some(f) = scene.failure() {
         w.label(RichText::new(format!("read error: {f}")).color(Color32::LIGHT_RED));
     }
+}
+
+/// Streaming of a tileset: of the tiles the settled view of this camera draws, those drawn;
+/// tiles still requested; GPU and RAM memory against their budgets.
+fn tiles_status(
+    w: &mut egui::Ui,
+    scene: &pointlet_engine::TilesetScene,
+    report: Option<&pointlet_engine::TilesetFrameReport>,
+    vram: u64,
+) {
+    let budgets = scene.config();
+    w.label(format!(
+        "VRAM {} · tiles {} / {}",
+        format_bytes(vram),
+        format_bytes(scene.gpu_bytes()),
+        format_bytes(budgets.vram_budget)
+    ));
+    let Some(r) = report else {
+        return;
+    };
+    w.label(format!(
+        "RAM {} / {} · {} fetching",
+        format_bytes(r.stream.bytes),
+        format_bytes(budgets.ram_budget),
+        r.stream.in_flight
+    ));
+    let progress = r.wanted_drawn as f64 / f64::from(r.wanted_tiles.max(1));
+    w.add(
+        egui::ProgressBar::new(progress.min(1.0) as f32).text(format!(
+            "tiles drawn {} / {} wanted · {} requested",
+            r.wanted_drawn, r.wanted_tiles, r.requested_tiles
+        )),
+    );
 }
 
 /// Frame times of the history as a bar graph, scaled to the slowest frame (at least 33 ms),
