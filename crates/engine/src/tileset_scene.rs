@@ -52,7 +52,7 @@ impl Default for TilesetConfig {
             ram_budget: 1 << 30,
             workers: 8,
             page_size: 256,
-            upload_per_frame: 256 << 20,
+            upload_per_frame: 32 << 20,
             color: None,
         }
     }
@@ -433,6 +433,9 @@ impl TilesetScene {
     /// room by dropping the least recently drawn tiles the plan does not draw.
     fn upload(&mut self, ctx: &GpuContext, plan: &TilePlan, report: &mut TilesetFrameReport) {
         let keep: HashSet<usize> = plan.draw.iter().map(|w| w.tile).collect();
+        // Eviction candidates, listed once a frame when first needed: newest first, so the
+        // least recently drawn pops off the end.
+        let mut victims: Option<Vec<(u64, usize)>> = None;
         for w in &plan.requests {
             if report.uploaded_bytes >= self.config.upload_per_frame {
                 break;
@@ -448,7 +451,7 @@ impl TilesetScene {
                 continue;
             }
             let n = tile.colors.len();
-            if !self.make_room(n, &keep, report) {
+            if !self.make_room(n, &keep, &mut victims, report) {
                 // The budget holds no more with what this view draws: the view stays coarser.
                 break;
             }
@@ -487,6 +490,7 @@ impl TilesetScene {
         &mut self,
         points: usize,
         keep: &HashSet<usize>,
+        victims: &mut Option<Vec<(u64, usize)>>,
         report: &mut TilesetFrameReport,
     ) -> bool {
         // Pages are made as needed: a tile that needs a new page needs its bytes in the budget.
@@ -496,20 +500,24 @@ impl TilesetScene {
         if fits(&self.pool) {
             return true;
         }
-        let mut victims: Vec<(u64, usize)> = self
-            .resident
-            .iter()
-            .filter(|(t, _)| !keep.contains(t))
-            .map(|(t, r)| (r.last_drawn, *t))
-            .collect();
-        victims.sort_unstable();
-        for (_, t) in victims {
-            if fits(&self.pool) {
-                break;
+        let victims = victims.get_or_insert_with(|| {
+            let mut v: Vec<(u64, usize)> = self
+                .resident
+                .iter()
+                .filter(|(t, _)| !keep.contains(t))
+                .map(|(t, r)| (r.last_drawn, *t))
+                .collect();
+            v.sort_unstable_by(|a, b| b.cmp(a));
+            v
+        });
+        while let Some((_, t)) = victims.pop() {
+            if self.resident.remove(&t).is_some() {
+                self.pool.remove(t as u64);
+                report.evicted_tiles += 1;
             }
-            self.pool.remove(t as u64);
-            self.resident.remove(&t);
-            report.evicted_tiles += 1;
+            if fits(&self.pool) {
+                return true;
+            }
         }
         fits(&self.pool)
     }
