@@ -43,6 +43,20 @@ fn open(
     TilesetScene::open(ctx, path, config).with_context(|| format!("opening {}", path.display()))
 }
 
+/// The camera of `--view`/`--eye`: a predefined view of a globe tileset is made in its local
+/// east–north–up frame (up is the local vertical), placed cameras are world coordinates.
+fn view_camera(
+    args: &crate::view_args::CameraArgs,
+    scene: &TilesetScene,
+) -> Result<pointlet_core::Camera> {
+    match scene.local_frame() {
+        Some(frame) if !args.placed() => {
+            Ok(frame.camera_to_world(&args.camera(&scene.view_bounds())?))
+        }
+        _ => args.camera(&scene.bounds()),
+    }
+}
+
 fn print_notes(scene: &mut TilesetScene) {
     for n in scene.take_notes() {
         eprintln!("note: {n}");
@@ -85,7 +99,7 @@ pub fn render(args: &crate::render_cmd::Args, path: &Path) -> Result<()> {
         &args.virtual_args,
         args.draw.color.as_ref(),
     )?;
-    let camera = args.camera.camera(&scene.bounds())?;
+    let camera = view_camera(&args.camera, &scene)?;
     let settings = args.draw.settings_for(variant, Some(path));
     let mut renderer = Renderer::new(&ctx);
     let started = Instant::now();
@@ -185,7 +199,17 @@ pub fn bench(args: &crate::bench_cmd::Args) -> Result<()> {
     )?;
     let settings = args.draw.settings_for(variant, Some(&args.store));
     let mut renderer = Renderer::new(&ctx);
-    let flight = Flight::new(args, scene.bounds())?;
+    // The orbit of a globe tileset circles its local vertical; a recorded path is in world
+    // coordinates.
+    let frame = scene.local_frame().filter(|_| args.path == "orbit");
+    let flight = Flight::new(
+        args,
+        if frame.is_some() {
+            scene.view_bounds()
+        } else {
+            scene.bounds()
+        },
+    )?;
     let config = args.tiles.config(&args.virtual_args, None);
     let mut rows: Vec<Row> = Vec::new();
     let mut stream = pointlet_tiles::TileStreamStats::default();
@@ -200,6 +224,7 @@ pub fn bench(args: &crate::bench_cmd::Args) -> Result<()> {
         let Some(camera) = flight.camera(k as usize, t) else {
             break;
         };
+        let camera = frame.map_or(camera, |f| f.camera_to_world(&camera));
         if k == 0 {
             first_frame = renderer.frames() + 1;
         } else if let Some(prev) = rows.last_mut() {

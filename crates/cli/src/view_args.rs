@@ -36,6 +36,11 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
+    /// True when `--eye`/`--target` place the camera (rather than a predefined view).
+    pub fn placed(&self) -> bool {
+        self.eye.is_some() || self.target.is_some()
+    }
+
     pub fn camera(&self, bounds: &Aabb) -> Result<Camera> {
         let mut cam = match self.view.as_str() {
             "closeup" => Camera::closeup(bounds, self.fov),

@@ -361,3 +361,43 @@ fn our_export_streams_back_to_the_stores_picture_refining_with_the_view() {
     assert!(evicted > 0, "nothing evicted under a budget below the data");
     assert!(share > 0.2 && share < 1.0, "share drawn {share}");
 }
+
+/// Lit pixels' bounding box: (min x, min y, max x, max y).
+fn lit_box(rgba: &[u8], width: usize) -> [usize; 4] {
+    let mut b = [usize::MAX, usize::MAX, 0, 0];
+    for (i, _) in lit(rgba).iter().enumerate().filter(|(_, l)| **l) {
+        let (x, y) = (i % width, i / width);
+        b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+    }
+    b
+}
+
+#[test]
+fn a_globe_tileset_is_seen_from_its_local_vertical_as_its_store() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let store = dir.path().join("g.pointlet");
+    // Generated scenes are in EPSG:32611: the export places them in ECEF.
+    ok(&["generate", "--points", "100K", "-o", s(&store)]);
+    let tiles = dir.path().join("ecef");
+    let said = ok_stderr(&["export-3dtiles", s(&store), "-o", s(&tiles)]);
+    assert!(said.contains("placed in ECEF"), "{said}");
+    let one = ["--point-size", "1"];
+    let png = dir.path().join("out.png");
+    ok(&[&["render", s(&store), "-o", s(&png)][..], &SIZE, &one].concat());
+    let from_store = lit_box(&png_rgba(&png), 320);
+    let tileset = tiles.join("tileset.json");
+    ok(&[
+        &["render", s(&tileset), "-o", s(&png), "--max-sse", "0"][..],
+        &SIZE,
+        &one,
+    ]
+    .concat());
+    let from_tiles = lit_box(&png_rgba(&png), 320);
+    // The same framing: the overview of the local east-north-up frame, not of ECEF's axes.
+    for k in 0..4 {
+        assert!(
+            from_store[k].abs_diff(from_tiles[k]) <= 6,
+            "lit box {from_tiles:?} of the tileset against {from_store:?} of the store"
+        );
+    }
+}

@@ -308,3 +308,104 @@ mod tests {
         }
     }
 }
+
+/// An east–north–up frame at a point near the Earth's surface in ECEF coordinates (the world
+/// frame of georeferenced 3D Tiles): predefined views and orbits of such data are made in it,
+/// so that "up" is the local vertical rather than ECEF's z axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalFrame {
+    pub origin: [f64; 3],
+    /// East, north and up, unit vectors in world coordinates.
+    pub axes: [[f64; 3]; 3],
+}
+
+/// WGS 84 semi-axes in metres.
+const WGS84_A: f64 = 6_378_137.0;
+const WGS84_B: f64 = 6_356_752.314_245;
+
+impl LocalFrame {
+    /// The frame at `p` when `p` lies 6 200–6 500 km from the Earth's centre (ECEF data), its
+    /// up the ellipsoid's normal there; `None` for anything else (local coordinates).
+    pub fn at_ecef(p: [f64; 3]) -> Option<Self> {
+        let r = length(p);
+        if !(6.2e6..6.5e6).contains(&r) {
+            return None;
+        }
+        let (a2, b2) = (WGS84_A * WGS84_A, WGS84_B * WGS84_B);
+        let up = normalize([p[0] / a2, p[1] / a2, p[2] / b2]);
+        let east = cross([0.0, 0.0, 1.0], up);
+        // At a pole any east will do.
+        let east = if length(east) < 1e-9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            normalize(east)
+        };
+        let north = cross(up, east);
+        Some(Self {
+            origin: p,
+            axes: [east, north, up],
+        })
+    }
+
+    /// World coordinates of local point `p`.
+    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+        let d = self.direction_to_world(p);
+        [0, 1, 2].map(|i| self.origin[i] + d[i])
+    }
+
+    /// World direction of local direction `v`.
+    pub fn direction_to_world(&self, v: [f64; 3]) -> [f64; 3] {
+        let [e, n, u] = self.axes;
+        [0, 1, 2].map(|i| e[i] * v[0] + n[i] * v[1] + u[i] * v[2])
+    }
+
+    /// Local coordinates of world point `p`.
+    pub fn to_local(&self, p: [f64; 3]) -> [f64; 3] {
+        let d = sub(p, self.origin);
+        self.axes.map(|a| dot(d, a))
+    }
+
+    /// A camera made in this frame, placed in world coordinates.
+    pub fn camera_to_world(&self, c: &Camera) -> Camera {
+        Camera {
+            eye: self.to_world(c.eye),
+            target: self.to_world(c.target),
+            up: self.direction_to_world(c.up),
+            ..*c
+        }
+    }
+}
+
+#[cfg(test)]
+mod local_frame_tests {
+    use super::*;
+
+    #[test]
+    fn an_ecef_point_gets_a_right_handed_east_north_up_frame() {
+        // 44.06° N, 123.07° W at 150 m (Eugene, Oregon).
+        let (lat, lon) = (44.06f64.to_radians(), (-123.07f64).to_radians());
+        let e2 = 1.0 - (WGS84_B * WGS84_B) / (WGS84_A * WGS84_A);
+        let n = WGS84_A / (1.0 - e2 * lat.sin().powi(2)).sqrt();
+        let h = 150.0;
+        let p = [
+            (n + h) * lat.cos() * lon.cos(),
+            (n + h) * lat.cos() * lon.sin(),
+            (n * (1.0 - e2) + h) * lat.sin(),
+        ];
+        let f = LocalFrame::at_ecef(p).expect("near the surface");
+        let [e, no, u] = f.axes;
+        let geodetic_up = [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()];
+        assert!(
+            dot(u, geodetic_up) > 1.0 - 1e-12,
+            "up is the ellipsoid normal"
+        );
+        assert!(e[2].abs() < 1e-12, "east is horizontal");
+        assert!(no[2] > 0.0, "north points to the pole");
+        let c = cross(e, no);
+        assert!((0..3).all(|i| (c[i] - u[i]).abs() < 1e-12), "right-handed");
+        let q = [12.5, -40.0, 3.0];
+        let back = f.to_local(f.to_world(q));
+        assert!((0..3).all(|i| (back[i] - q[i]).abs() < 1e-6), "{back:?}");
+        assert_eq!(LocalFrame::at_ecef([500_000.0, 4_100_000.0, 200.0]), None);
+    }
+}

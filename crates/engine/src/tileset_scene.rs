@@ -6,6 +6,7 @@
 //! rasterizers draw the plan.
 
 use crate::EngineError;
+use pointlet_core::camera::LocalFrame;
 use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale, DefaultColor};
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::size::format_bytes;
@@ -233,6 +234,32 @@ impl TilesetScene {
     /// The root tile's bounding box (world coordinates).
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// The east–north–up frame at the root's centre when the tileset is in ECEF (a globe
+    /// tileset), where views of it are made; `None` for a local tileset.
+    pub fn local_frame(&self) -> Option<LocalFrame> {
+        LocalFrame::at_ecef(self.tileset.root().volume.sphere.center)
+    }
+
+    /// The root's box in the coordinates views are made in: its [`local_frame`](Self::local_frame)
+    /// if any, else the world's.
+    pub fn view_bounds(&self) -> Aabb {
+        let Some(frame) = self.local_frame() else {
+            return self.bounds;
+        };
+        let b = &self.tileset.root().volume.oriented_box;
+        let mut out = Aabb::EMPTY;
+        for k in 0..8 {
+            let corner = [0, 1, 2].map(|i| {
+                (0..3).fold(b.center[i], |v, a| {
+                    let sign = if k & (1 << a) != 0 { 1.0 } else { -1.0 };
+                    v + sign * b.half_axes[a][i]
+                })
+            });
+            out.grow(frame.to_local(corner));
+        }
+        out
     }
 
     pub fn tiles(&self) -> usize {
