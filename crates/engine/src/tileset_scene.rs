@@ -11,6 +11,7 @@ use pointlet_core::color::{default_color, point_color, ColorMode, ColorScale, De
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::size::format_bytes;
 use pointlet_core::{Aabb, Camera, PointBatch, PointLayout};
+use pointlet_gpu::box_spacing;
 use pointlet_gpu::tile_pool::encode_tile;
 use pointlet_gpu::{
     GpuContext, RenderSettings, RenderTarget, Renderer, TileDraw, TilePool, CONTENT_PAGE_BYTES,
@@ -586,17 +587,13 @@ fn plan_all(tileset: &Tileset, view: &TileView, max_sse: f64) -> Vec<usize> {
         .collect()
 }
 
-/// Mean spacing of a tile's points from their bounding box and count (for adaptive splats):
-/// a surface sample of n points over the box's two largest sides.
+/// Surface spacing of a tile's points (adaptive splats), as the LoD computes a pointlet's.
 fn tile_spacing(positions: &[[f64; 3]]) -> f32 {
     let mut b = Aabb::EMPTY;
     for p in positions {
         b.grow(*p);
     }
-    let mut e = [0, 1, 2].map(|a| (b.max[a] - b.min[a]).max(0.0));
-    e.sort_by(f64::total_cmp);
-    let area = (e[2] * e[1]).max(e[2] * e[2] * 1e-6);
-    (area / positions.len().max(1) as f64).sqrt() as f32
+    box_spacing(b.extent(), positions.len() as u64) as f32
 }
 
 /// The contents of the first tile with points, breadth first from the root.

@@ -275,13 +275,7 @@ impl Renderer {
         mut reuse: Option<&mut TemporalReuse>,
     ) -> Result<(), GpuError> {
         let variant = settings.variant;
-        if variant == RasterVariant::HwPoints {
-            return Err(GpuError::Unsupported {
-                what: variant.name().to_string(),
-                why: "the point-list baseline draws static clouds only (bench-raster)".into(),
-                adapter: ctx.describe(),
-            });
-        }
+        refuse_hw_points(ctx, variant)?;
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
         self.ensure_pipelines(ctx, settings, paged.encoding, paged.page_size)?;
@@ -383,13 +377,7 @@ impl Renderer {
         target: &mut RenderTarget,
     ) -> Result<(), GpuError> {
         let variant = settings.variant;
-        if variant == RasterVariant::HwPoints {
-            return Err(GpuError::Unsupported {
-                what: variant.name().to_string(),
-                why: "the point-list baseline draws static clouds only (bench-raster)".into(),
-                adapter: ctx.describe(),
-            });
-        }
+        refuse_hw_points(ctx, variant)?;
         let mode = settings.splats.mode();
         Self::check(ctx, variant, &settings.splats, camera)?;
         let encoding = PointEncoding::Full16;
@@ -641,4 +629,17 @@ pub(crate) fn record_stage(
         draw.dispatch,
         &px.buffers(kind),
     );
+}
+
+/// The point-list baseline draws static clouds only: pages chosen on the GPU (stores, tiles)
+/// are drawn by the compute rasterizers.
+fn refuse_hw_points(ctx: &GpuContext, variant: RasterVariant) -> Result<(), GpuError> {
+    if variant == RasterVariant::HwPoints {
+        return Err(GpuError::Unsupported {
+            what: variant.name().to_string(),
+            why: "the point-list baseline draws static clouds only (bench-raster)".into(),
+            adapter: ctx.describe(),
+        });
+    }
+    Ok(())
 }

@@ -9,7 +9,9 @@ use crate::cloud::write_frame;
 use crate::context::GpuContext;
 use crate::raster::grid;
 use crate::renderer::RenderSettings;
-use crate::storage::{DrawBuffers, GpuDrawEntry, GpuDrawInfo, PointEncoding, PointStorage};
+use crate::storage::{
+    encode_positions, DrawBuffers, GpuDrawEntry, GpuDrawInfo, PointEncoding, PointStorage,
+};
 use crate::suballoc::{Allocation, Suballocator, ALIGNMENT};
 use crate::{shaders, GpuError};
 use bytemuck::{Pod, Zeroable};
@@ -631,9 +633,15 @@ impl TilePool {
 /// A tile's positions as the pool holds them: f32 xyz relative to `origin`, as bits.
 pub fn encode_tile(positions: &[[f64; 3]], origin: [f64; 3]) -> Vec<u32> {
     let mut words = Vec::with_capacity(positions.len() * 3);
-    for p in positions {
-        words.extend([0, 1, 2].map(|a| ((p[a] - origin[a]) as f32).to_bits()));
-    }
+    // Full16 has no quantization step and no fine stream.
+    encode_positions(
+        positions,
+        origin,
+        [0.0; 3],
+        PointEncoding::Full16,
+        &mut words,
+        &mut Vec::new(),
+    );
     words
 }
 
