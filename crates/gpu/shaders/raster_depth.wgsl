@@ -51,7 +51,8 @@ fn splat_depth(w: Work, i: u32) {
                 continue;
             }
             let inv = tier_depth(~s.depth_bits, px.ring);
-            if atomicLoad(&depth_buffer[px.pixel]) < inv {
+            // Splats wider than a pixel skip the test load (raster_subgroup.wgsl says why).
+            if s.ring > 1u || atomicLoad(&depth_buffer[px.pixel]) < inv {
                 atomicMax(&depth_buffer[px.pixel], inv);
             }
         }

@@ -6,8 +6,9 @@
 // INDEX_KEYS (progressive rendering, progressive.rs) puts the point's id (its slot in the shuffled
 // buffer) in the low word instead of the colour, so the Prepare pass can list the winners; the
 // colour key goes to keep_color_key (color_keys_*.wgsl) for the tie rule.
-// SPLATS: the same key written to every pixel of the point's splat (common.wgsl), early depth
-// test per pixel; the gap-filling ring writes its lower-tier keys.
+// SPLATS: the same key written to every pixel of the point's splat (common.wgsl), the early depth
+// test for one-pixel splats only (raster_subgroup.wgsl says why); the gap-filling ring writes
+// its lower-tier keys.
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -58,6 +59,7 @@ fn draw_splat(w: Work, i: u32) {
     }
     var color = 0u;
     var fetched = false;
+    let early_z = EARLY_Z && s.ring == 1u;
     for (var dy = 0u; dy < s.ring; dy++) {
         for (var dx = 0u; dx < s.ring; dx++) {
             let px = splat_pixel(s, vec2<u32>(dx, dy));
@@ -65,7 +67,7 @@ fn draw_splat(w: Work, i: u32) {
                 continue;
             }
             let inv = tier_depth(~s.depth_bits, px.ring);
-            if EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv {
+            if early_z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv {
                 continue;
             }
             if !fetched {

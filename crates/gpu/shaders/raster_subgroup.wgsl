@@ -7,7 +7,10 @@
 // EARLY_Z adds §3.2's early depth test. Keys as in raster_min64.wgsl (atomicMax of complements),
 // with the point id instead of the colour under INDEX_KEYS (color_keys_*.wgsl).
 // SPLATS: every lane walks its splat's pixels (common.wgsl) in step with the others, as many
-// steps as the largest splat of the subgroup, and each step reduces like single pixels.
+// steps as the largest splat of the subgroup, and each step reduces like single pixels. Only
+// one-pixel splats take the early depth test: on a larger splat it would put a memory round
+// trip on every step of the walk, while its atomic writes need no answer (measured on the 1 G
+// orbit, docs/BENCHMARKS.md: raster 0.77 → 0.62 ms).
 
 override WG: u32 = 256u;
 override PAGE_SIZE: u32 = 4096u;
@@ -72,6 +75,7 @@ fn raster_splat(w: Work, i: u32) {
     }
     let n = select(0u, s.ring * s.ring, s.valid);
     let steps = subgroupMax(n);
+    let early_z = EARLY_Z && n == 1u;
     var fetched = false;
     var hidden = false;
     var shown = 0u;
@@ -84,7 +88,7 @@ fn raster_splat(w: Work, i: u32) {
             let px = splat_pixel(s, d);
             let inv = tier_depth(~s.depth_bits, px.ring);
             if px.pixel != NO_PIXEL
-                && !(EARLY_Z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv) {
+                && !(early_z && u32(atomicLoad(&framebuffer[px.pixel]) >> 32u) > inv) {
                 if !fetched {
                     let color = load_color(w.base + i);
                     fetched = true;
