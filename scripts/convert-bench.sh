@@ -11,6 +11,7 @@
 #   POINTS    points to generate (default 200M)
 #   POINTLET  the binary (default target/release/pointlet)
 #   ROUNDS    rounds of each timed conversion (default 2; the ratios use the best)
+#   POTREE_ROUNDS  rounds of PotreeConverter (default ROUNDS)
 #   POTREE    PotreeConverter's run.sh (the build in the shared tools folder beside the
 #             repository: potree-converter/run.sh); unset, the Potree runs are skipped
 # On the GPU machine (no Rust, no network, no /usr/bin/time): copy the release binary and
@@ -27,6 +28,7 @@ work=${2:-/tmp/pointlet-convert-bench}
 bin=${POINTLET:-target/release/pointlet}
 points=${POINTS:-200M}
 rounds=${ROUNDS:-2}
+potree_rounds=${POTREE_ROUNDS:-$rounds}
 potree=${POTREE:-}
 [ -x "$bin" ] || {
   echo "no pointlet binary at $bin (cargo build --release --bin pointlet, or set POINTLET)" >&2
@@ -103,6 +105,11 @@ for r in $(seq "$rounds"); do
   warm "$las"
   timed "las-mem-$r" "$bin" convert "$las" -o "$mem_store" --ram-budget "$mem_budget"
 done
+# The other way of writing the store (convert picks mapped writes with 8 threads or more).
+rm -f "$mem_store"
+warm "$las"
+timed "las-positioned-1" env POINTLET_STORE_WRITES=positioned "$bin" convert "$las" -o "$mem_store" \
+  --ram-budget "$mem_budget"
 for r in $(seq "$rounds"); do
   rm -f "$ooc_store"
   warm "$las"
@@ -119,7 +126,7 @@ warm "$laz"
 timed "laz-mem-1" "$bin" convert "$laz" -o "$work/laz.pointlet" --ram-budget "$mem_budget"
 rm -f "$work/laz.pointlet"
 if [ -n "$potree" ]; then
-  for r in $(seq "$rounds"); do
+  for r in $(seq "$potree_rounds"); do
     rm -rf "$potree_out"
     warm "$las"
     timed "potree-$r" "$potree" "$las" -o "$potree_out"

@@ -3,7 +3,7 @@
 use anyhow::{anyhow, bail, Result};
 use pointlet_core::PointBatch;
 use pointlet_io::PointReader;
-use pointlet_store::{BuildConfig, StoreBuilder};
+use pointlet_store::{BuildConfig, StoreBuilder, StoreWrites};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
 
@@ -115,7 +115,7 @@ pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
     let summary = build_store(
         &args.output,
-        config(args.ram_budget, args.tmp, args.pointlets, args.seed),
+        config(args.ram_budget, args.tmp, args.pointlets, args.seed)?,
         &meta,
         files.iter().map(|f| f.display().to_string()).collect(),
         readers,
@@ -143,13 +143,25 @@ pub fn config(
     tmp: Option<PathBuf>,
     pointlets: u64,
     seed: u64,
-) -> BuildConfig {
-    BuildConfig {
+) -> Result<BuildConfig> {
+    Ok(BuildConfig {
         ram_budget: ram_budget.unwrap_or_else(default_ram_budget),
         tmp_dir: tmp,
         target_pointlets: pointlets.max(1),
         seed,
         progress: crate::progress::build_bar(),
+        writes: store_writes()?,
+    })
+}
+
+/// `POINTLET_STORE_WRITES=auto|mapped|positioned` picks how stores are written (benchmarks
+/// compare the two; docs/BENCHMARKS.md).
+fn store_writes() -> Result<StoreWrites> {
+    match std::env::var("POINTLET_STORE_WRITES") {
+        Err(_) => Ok(StoreWrites::Auto),
+        Ok(v) => StoreWrites::parse(&v).ok_or_else(|| {
+            anyhow!("POINTLET_STORE_WRITES is '{v}': give auto, mapped or positioned")
+        }),
     }
 }
 

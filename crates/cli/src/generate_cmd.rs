@@ -115,7 +115,7 @@ pub fn run(args: Args) -> Result<()> {
             writer.finish()?;
         }
         "pointlet" => {
-            let config = crate::convert_cmd::config(args.ram_budget, None, args.pointlets, 0);
+            let config = crate::convert_cmd::config(args.ram_budget, None, args.pointlets, 0)?;
             crate::convert_cmd::build_store(
                 &args.output,
                 config,

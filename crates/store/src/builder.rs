@@ -30,6 +30,44 @@ pub struct BuildConfig {
     pub seed: u64,
     /// Called now and then with how far the build is.
     pub progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
+    /// How the store's bytes reach the file.
+    pub writes: StoreWrites,
+}
+
+/// How a store's bytes reach the file. Both ways give the same bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StoreWrites {
+    /// Mapped with 8 threads or more, else positioned: buffered writes into one file are
+    /// serialized by its inode lock (3–5 GB/s whatever the threads), while the page faults of
+    /// mapped writes are spread over the threads — 11.6 GB/s on the 16-core GPU machine but
+    /// slower than one writer thread on 2 cores (docs/BENCHMARKS.md).
+    #[default]
+    Auto,
+    /// Every thread fills memory maps of the ranges it computes, where the file's disk space
+    /// can be reserved (Linux); elsewhere positioned.
+    Mapped,
+    /// One writer thread writes each block with positioned writes while the next is computed.
+    Positioned,
+}
+
+impl StoreWrites {
+    /// `auto`, `mapped` or `positioned` (the `POINTLET_STORE_WRITES` variable of `convert`).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(StoreWrites::Auto),
+            "mapped" => Some(StoreWrites::Mapped),
+            "positioned" => Some(StoreWrites::Positioned),
+            _ => None,
+        }
+    }
+
+    fn mapped(self) -> bool {
+        match self {
+            StoreWrites::Auto => rayon::current_num_threads() >= 8,
+            StoreWrites::Mapped => true,
+            StoreWrites::Positioned => false,
+        }
+    }
 }
 
 impl Default for BuildConfig {
@@ -40,6 +78,7 @@ impl Default for BuildConfig {
             target_pointlets: 100_000,
             seed: 0,
             progress: None,
+            writes: StoreWrites::Auto,
         }
     }
 }
@@ -52,6 +91,7 @@ impl std::fmt::Debug for BuildConfig {
             .field("target_pointlets", &self.target_pointlets)
             .field("seed", &self.seed)
             .field("progress", &self.progress.as_ref().map(|_| "callback"))
+            .field("writes", &self.writes)
             .finish()
     }
 }
@@ -138,6 +178,7 @@ pub struct StoreBuilder {
     ram_budget: u64,
     target_pointlets: u64,
     seed: u64,
+    writes: StoreWrites,
     progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
     quantization: Quantization,
     /// The key grid points are keyed with as they come: over the header bounds, snapped to the
@@ -274,6 +315,7 @@ impl StoreBuilder {
             target_pointlets: config.target_pointlets.max(1),
             seed: config.seed,
             progress: config.progress,
+            writes: config.writes,
             quantization,
             grid: KeyGrid::new(&key_bounds),
             key_bounds,
@@ -546,7 +588,10 @@ impl StoreBuilder {
             return Ok(());
         }
         let (rb, chunk) = (self.rl.len, self.io_chunk);
-        let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
+        let mapped = self.writes.mapped();
+        let spiller = self
+            .spiller
+            .get_or_insert_with(|| Spiller::new(rb, chunk, mapped));
         // At most SPILLERS runs are in flight: when all are, the oldest must be on disk now.
         let reuse = if spiller.in_flight() < runs::SPILLERS {
             Run::default()
@@ -651,7 +696,8 @@ impl StoreBuilder {
             let p = output.clone();
             move |e| StoreError::io(&p, what, e)
         };
-        pio::allocate(&file, plan.file_len).map_err(io("reserving disk space for the output"))?;
+        let reserved = pio::allocate(&file, plan.file_len)
+            .map_err(io("reserving disk space for the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
         let out = EmitPlan {
             file: &file,
@@ -662,6 +708,7 @@ impl StoreBuilder {
             points: n,
             seed: self.seed,
             quantization: self.quantization,
+            mapped: reserved && self.writes.mapped(),
         };
         let rb = self.rl.len;
         let progress = self.progress.clone();
@@ -767,6 +814,7 @@ impl StoreBuilder {
                 &run.pairs,
                 rb,
                 self.io_chunk,
+                self.writes.mapped(),
             )?);
             self.report(BuildPhase::Sorting, done, total);
         }

@@ -11,6 +11,7 @@ use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization};
 use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 
@@ -227,6 +228,9 @@ pub(crate) struct EmitPlan<'a> {
     pub points: u64,
     pub seed: u64,
     pub quantization: Quantization,
+    /// Blocks are written through memory maps by the threads that compute them, not by one
+    /// writer thread (the file's space is reserved: [`pio::allocate`]; Linux only).
+    pub mapped: bool,
 }
 
 /// State the emitter shares with its writer thread.
@@ -237,6 +241,8 @@ struct Shared {
     crcs: Mutex<Vec<BlockCrc>>,
     /// The writer's error; it stops at the first.
     failed: Mutex<Option<StoreError>>,
+    /// Pointlets emitted so far, a bit each: mapped blocks must never overlap.
+    claimed: Vec<AtomicU64>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -245,12 +251,14 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 }
 
 /// Writes the streams, pointlet table and checksum table of a store being built. Blocks of
-/// whole pointlets may be emitted from any thread and in any order; one writer thread writes
-/// them in place while the callers compute the next ones.
+/// whole pointlets may be emitted from any thread and in any order. Into a file with reserved
+/// space (Linux) each block is computed straight into memory maps of its ranges; elsewhere one
+/// writer thread writes blocks in place while the callers compute the next ones.
 pub(crate) struct Emitter<'a> {
     out: &'a EmitPlan<'a>,
     shared: &'a Shared,
-    jobs: SyncSender<WriteJob>,
+    /// The writer thread's queue; None when blocks are written through memory maps.
+    jobs: Option<SyncSender<WriteJob>>,
 }
 
 /// What the emitter computed for one pointlet: its table entry and stream checksums.
@@ -264,24 +272,38 @@ impl<'a> Emitter<'a> {
         out: &EmitPlan<'_>,
         body: impl FnOnce(&Emitter<'_>) -> Result<R, StoreError>,
     ) -> Result<(R, u32, u32), StoreError> {
-        let shared = Shared::default();
-        // Two blocks queued keep the writer busy while bounding the memory in flight.
-        let (jobs, queue) = sync_channel::<WriteJob>(2);
-        let result = std::thread::scope(|scope| {
-            let writer = scope.spawn(|| write_loop(out, &shared, queue));
-            let emitter = Emitter {
+        let pointlets = out.points.div_ceil(out.k);
+        let shared = Shared {
+            claimed: (0..pointlets.div_ceil(64))
+                .map(|_| AtomicU64::new(0))
+                .collect(),
+            ..Default::default()
+        };
+        let result = if cfg!(target_os = "linux") && out.mapped {
+            body(&Emitter {
                 out,
                 shared: &shared,
-                jobs,
-            };
-            let result = body(&emitter);
-            drop(emitter);
-            let joined = writer.join();
-            if joined.is_err() {
-                return Err(StoreError::build(out.path, "the writing thread panicked"));
-            }
-            result
-        });
+                jobs: None,
+            })
+        } else {
+            // Two blocks queued keep the writer busy while bounding the memory in flight.
+            let (jobs, queue) = sync_channel::<WriteJob>(2);
+            std::thread::scope(|scope| {
+                let writer = scope.spawn(|| write_loop(out, &shared, queue));
+                let emitter = Emitter {
+                    out,
+                    shared: &shared,
+                    jobs: Some(jobs),
+                };
+                let result = body(&emitter);
+                drop(emitter);
+                let joined = writer.join();
+                if joined.is_err() {
+                    return Err(StoreError::build(out.path, "the writing thread panicked"));
+                }
+                result
+            })
+        };
         if let Some(e) = lock(&shared.failed).take() {
             return Err(e);
         }
@@ -298,7 +320,6 @@ impl<'a> Emitter<'a> {
             checks.combine(&c.checks);
             next = c.p1;
         }
-        let pointlets = out.points.div_ceil(out.k);
         if next != pointlets || crcs.last().map(|c| c.p1) != Some(pointlets) {
             return Err(StoreError::build(
                 out.path,
@@ -341,16 +362,102 @@ impl<'a> Emitter<'a> {
                 format!("internal error: pointlets {p0}..{p1} do not exist"),
             ));
         }
+        self.claim(p0, p1)?;
         let a = p0 * o.k;
         let n = ((p1 * o.k).min(o.points) - a) as usize;
         let rl = o.rl;
+        let Some(jobs) = &self.jobs else {
+            return self.block_mapped(p0, p1, a, n, source);
+        };
         let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
         streams.resize_with(rl.fields.len(), Vec::new);
         // Every byte is overwritten: reused buffers of the right size are not zeroed again.
         for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
             buf.resize(n * bpp, 0);
         }
-        let results = self.compute(p0, p1, source, &mut streams);
+        let mut outs: Vec<&mut [u8]> = streams.iter_mut().map(|b| b.as_mut_slice()).collect();
+        let results = self.compute(p0, p1, source, &mut outs);
+        let (table, checks) = self.finish(p0, p1, &results);
+        jobs.send(WriteJob {
+            first: a,
+            p0,
+            streams,
+            table,
+            checks,
+        })
+        .map_err(|_| self.writer_stopped())
+    }
+
+    /// Marks pointlets `[p0, p1)` emitted; fails if any already was.
+    fn claim(&self, p0: u64, p1: u64) -> Result<(), StoreError> {
+        for p in p0..p1 {
+            let bit = 1u64 << (p % 64);
+            let word = &self.shared.claimed[(p / 64) as usize];
+            if word.fetch_or(bit, Ordering::AcqRel) & bit != 0 {
+                return Err(StoreError::build(
+                    self.out.path,
+                    format!("internal error: pointlet {p} was emitted twice"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Computes block `[p0, p1)` (its `n` points from sorted position `a`) straight into
+    /// memory maps of its stream ranges, then writes its table rows.
+    #[cfg(target_os = "linux")]
+    fn block_mapped(
+        &self,
+        p0: u64,
+        p1: u64,
+        a: u64,
+        n: usize,
+        source: &Source<'_>,
+    ) -> Result<(), StoreError> {
+        let o = self.out;
+        let mut maps = Vec::with_capacity(o.plan.streams.len());
+        for info in &o.plan.streams {
+            let bpp = info.bytes_per_point as usize;
+            let map = pio::MappedRange::new(o.file, info.offset + a * bpp as u64, n * bpp)
+                .map_err(|e| {
+                    StoreError::io(
+                        o.path,
+                        format!("mapping the {} stream", info.kind.name()),
+                        e,
+                    )
+                })?;
+            maps.push(map);
+        }
+        let mut outs: Vec<&mut [u8]> = maps.iter_mut().map(|m| m.bytes_mut()).collect();
+        let results = self.compute(p0, p1, source, &mut outs);
+        drop(outs);
+        drop(maps);
+        let (table, checks) = self.finish(p0, p1, &results);
+        let streams = o.rl.fields.len() as u64;
+        pio::write_all_at(o.file, &table, o.plan.table.offset + p0 * TABLE_ENTRY_LEN)
+            .map_err(|e| StoreError::io(o.path, "writing the pointlet table", e))?;
+        pio::write_all_at(o.file, &checks, o.plan.checksums.offset + p0 * 4 * streams)
+            .map_err(|e| StoreError::io(o.path, "writing the checksum table", e))
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn block_mapped(
+        &self,
+        _p0: u64,
+        _p1: u64,
+        _a: u64,
+        _n: usize,
+        _source: &Source<'_>,
+    ) -> Result<(), StoreError> {
+        Err(StoreError::build(
+            self.out.path,
+            "internal error: memory-mapped writing is for Linux",
+        ))
+    }
+
+    /// The table rows and stream checksums of block `[p0, p1)`, whose CRCs join the store's.
+    fn finish(&self, p0: u64, p1: u64, results: &[PointletResult]) -> (Vec<u8>, Vec<u8>) {
+        let rl = self.out.rl;
         let mut table = vec![0u8; results.len() * TABLE_ENTRY_LEN as usize];
         let mut checks = Vec::with_capacity(results.len() * rl.fields.len() * 4);
         for ((entry, crcs), out) in results
@@ -371,15 +478,7 @@ impl<'a> Emitter<'a> {
         crc.table.update(&table);
         crc.checks.update(&checks);
         lock(&self.shared.crcs).push(crc);
-        self.jobs
-            .send(WriteJob {
-                first: a,
-                p0,
-                streams,
-                table,
-                checks,
-            })
-            .map_err(|_| self.writer_stopped())
+        (table, checks)
     }
 
     /// Shuffles, splits, bounds and checksums pointlets `[p0, p1)` into `streams`.
@@ -388,7 +487,7 @@ impl<'a> Emitter<'a> {
         p0: u64,
         p1: u64,
         source: &Source<'_>,
-        streams: &mut [Vec<u8>],
+        streams: &mut [&mut [u8]],
     ) -> Vec<PointletResult> {
         let o = self.out;
         let rl = o.rl;

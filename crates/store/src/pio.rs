@@ -71,15 +71,24 @@ pub fn write_all_at(_file: &File, _buf: &[u8], _offset: u64) -> io::Result<()> {
 
 /// Sizes a new file to `len` bytes with its disk space reserved where the file system can
 /// (a full disk fails here, before the work, and the kernel then writes into allocated blocks,
-/// which is faster); elsewhere the file is only extended.
-pub fn allocate(file: &File, len: u64) -> io::Result<()> {
+/// which is faster); elsewhere the file is only extended. True when the space is reserved.
+pub fn allocate(file: &File, len: u64) -> io::Result<bool> {
+    if reserve(file, len)? {
+        return Ok(true);
+    }
+    file.set_len(len).map(|()| false)
+}
+
+/// Sizes a new file to `len` bytes with its disk space reserved, if the file system can (true);
+/// otherwise leaves the file as it was (false).
+pub fn reserve(file: &File, len: u64) -> io::Result<bool> {
     #[cfg(target_os = "linux")]
     {
         use std::os::unix::io::AsRawFd;
         if let Ok(l) = libc::off_t::try_from(len) {
             // SAFETY: a plain system call on a descriptor this `File` owns.
             if unsafe { libc::fallocate(file.as_raw_fd(), 0, 0, l) } == 0 {
-                return Ok(());
+                return Ok(true);
             }
             let e = io::Error::last_os_error();
             if !matches!(
@@ -90,5 +99,93 @@ pub fn allocate(file: &File, len: u64) -> io::Result<()> {
             }
         }
     }
-    file.set_len(len)
+    let _ = (file, len);
+    Ok(false)
+}
+
+/// A writable shared memory map of one byte range of a file whose space is reserved
+/// ([`allocate`] returned true): many threads fill such ranges at once, where buffered writes
+/// into one file are serialized by its inode lock (3–5 GB/s whatever the threads; this reaches
+/// 11.6 GB/s on 16 cores, docs/BENCHMARKS.md). The pages are faulted in ahead in parallel
+/// (MADV_POPULATE_WRITE: one fault per page from user space is slower than pwrite). Unmapped on
+/// drop; the bytes stay in the page cache like written ones.
+#[cfg(target_os = "linux")]
+pub struct MappedRange {
+    map: *mut libc::c_void,
+    map_len: usize,
+    /// The range's first byte within the map (maps start on a page).
+    skip: usize,
+    len: usize,
+}
+
+// SAFETY: the map is owned memory like a Vec's; nothing else refers to it.
+#[cfg(target_os = "linux")]
+unsafe impl Send for MappedRange {}
+
+#[cfg(target_os = "linux")]
+impl MappedRange {
+    /// Maps `len` bytes at `offset` of `file`. The caller must not map overlapping ranges of a
+    /// file at once, and the file must stay at least `offset + len` bytes long while mapped (a
+    /// shorter file would fault on access).
+    pub fn new(file: &File, offset: u64, len: usize) -> io::Result<Self> {
+        use rayon::prelude::*;
+        use std::os::unix::io::AsRawFd;
+        // SAFETY: sysconf has no preconditions.
+        let page = (unsafe { libc::sysconf(libc::_SC_PAGESIZE) }).max(4096) as u64;
+        let start = offset - offset % page;
+        let skip = (offset - start) as usize;
+        let map_len = skip + len.max(1);
+        let at = libc::off_t::try_from(start)
+            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "offset out of range"))?;
+        // SAFETY: a fresh shared mapping of a descriptor this `File` owns; failures return
+        // MAP_FAILED, checked below.
+        let map = unsafe {
+            libc::mmap(
+                std::ptr::null_mut(),
+                map_len,
+                libc::PROT_READ | libc::PROT_WRITE,
+                libc::MAP_SHARED,
+                file.as_raw_fd(),
+                at,
+            )
+        };
+        if map == libc::MAP_FAILED {
+            return Err(io::Error::last_os_error());
+        }
+        const MADV_POPULATE_WRITE: libc::c_int = 23;
+        const CHUNK: usize = 4 << 20;
+        let base = map as usize;
+        (0..map_len.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
+            let len = CHUNK.min(map_len - c * CHUNK);
+            // SAFETY: advice on pages of this mapping. Kernels before 5.14 answer EINVAL and
+            // the pages are faulted in as they are written instead.
+            unsafe {
+                libc::madvise(
+                    (base + c * CHUNK) as *mut libc::c_void,
+                    len,
+                    MADV_POPULATE_WRITE,
+                )
+            };
+        });
+        Ok(Self {
+            map,
+            map_len,
+            skip,
+            len,
+        })
+    }
+
+    pub fn bytes_mut(&mut self) -> &mut [u8] {
+        // SAFETY: `skip + len` ≤ `map_len` bytes are mapped readable and writable for as long
+        // as self lives, and no other slice of them exists (the borrow is exclusive).
+        unsafe { std::slice::from_raw_parts_mut((self.map as *mut u8).add(self.skip), self.len) }
+    }
+}
+
+#[cfg(target_os = "linux")]
+impl Drop for MappedRange {
+    fn drop(&mut self) {
+        // SAFETY: unmaps exactly the mapping made in `new`, once.
+        unsafe { libc::munmap(self.map, self.map_len) };
+    }
 }

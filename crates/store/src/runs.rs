@@ -4,7 +4,7 @@
 //! Runs cover consecutive stretches of the input, so ties between runs go to the lower run:
 //! the merged order is the same total order an in-memory sort gives.
 
-use crate::StoreError;
+use crate::{pio, StoreError};
 use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -46,7 +46,11 @@ impl Drop for RunFile {
 /// Creates a run file for writing; the returned guard removes it again when dropped.
 pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
     let file =
-        pointlet_core::cleanup::create(&path, OpenOptions::new().write(true).create_new(true))
+        // Readable too: memory maps of a file need it (write_run).
+        pointlet_core::cleanup::create(
+            &path,
+            OpenOptions::new().read(true).write(true).create_new(true),
+        )
             .map_err(|e| StoreError::io(&path, "creating a temporary run file", e))?;
     Ok((
         RunFile {
@@ -58,22 +62,22 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
     ))
 }
 
-/// Writes the records of an in-memory run in sorted `order` as a run file. One chunk is
-/// written while the next is gathered.
+/// Writes the records of an in-memory run in sorted `order` as a run file: gathered straight
+/// into memory maps of the file by every thread when `mapped` (and its space can be reserved,
+/// as for the store: emit.rs), else one chunk written while the next is gathered.
 pub(crate) fn write_run(
     path: PathBuf,
     records: &[u8],
     order: &[(u64, u32)],
     rb: usize,
     chunk_bytes: usize,
+    mapped: bool,
 ) -> Result<RunFile, StoreError> {
     let (mut run, mut file) = create_run(path)?;
     let entry = 8 + rb;
     let chunk_points = (chunk_bytes / entry).max(1);
-    let gather = |part: &[(u64, u32)], buf: &mut Vec<u8>| {
-        buf.clear();
-        buf.resize(part.len() * entry, 0);
-        buf.par_chunks_mut(4096 * entry)
+    let gather_into = |part: &[(u64, u32)], out: &mut [u8]| {
+        out.par_chunks_mut(4096 * entry)
             .zip(part.par_chunks(4096))
             .for_each(|(o, keys)| {
                 for (e, (key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
@@ -82,6 +86,32 @@ pub(crate) fn write_run(
                     e[8..].copy_from_slice(&records[at..at + rb]);
                 }
             });
+    };
+    run.count = order.len() as u64;
+    run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
+    #[cfg(target_os = "linux")]
+    {
+        let io = |what: &'static str| {
+            let p = run.path.clone();
+            move |e| StoreError::io(&p, what, e)
+        };
+        let len = (order.len() * entry) as u64;
+        if mapped && pio::reserve(&file, len).map_err(io("reserving space for a run file"))? {
+            let mut offset = 0u64;
+            for part in order.chunks(chunk_points) {
+                let mut map = pio::MappedRange::new(&file, offset, part.len() * entry)
+                    .map_err(io("mapping a temporary run file"))?;
+                gather_into(part, map.bytes_mut());
+                offset += (part.len() * entry) as u64;
+            }
+            return Ok(run);
+        }
+    }
+    let _ = mapped;
+    let gather = |part: &[(u64, u32)], buf: &mut Vec<u8>| {
+        buf.clear();
+        buf.resize(part.len() * entry, 0);
+        gather_into(part, buf);
     };
     let mut parts = order.chunks(chunk_points);
     let mut ready = Vec::new();
@@ -101,8 +131,6 @@ pub(crate) fn write_run(
         written.map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
         std::mem::swap(&mut ready, &mut next);
     }
-    run.count = order.len() as u64;
-    run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
     Ok(run)
 }
 
@@ -159,7 +187,8 @@ pub(crate) struct Spiller {
 }
 
 impl Spiller {
-    pub fn new(rb: usize, chunk_bytes: usize) -> Spiller {
+    /// `mapped`: run files are written through memory maps (write_run).
+    pub fn new(rb: usize, chunk_bytes: usize, mapped: bool) -> Spiller {
         let (jobs, todo) = sync_channel::<SpillJob>(SPILLERS);
         let todo = std::sync::Arc::new(std::sync::Mutex::new(todo));
         let workers = (0..SPILLERS)
@@ -171,8 +200,8 @@ impl Spiller {
                         return;
                     };
                     crate::sort::sort_pairs(&mut run.pairs);
-                    let result =
-                        write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
+                    let result = write_run(path, &run.records, &run.pairs, rb, chunk_bytes, mapped)
+                        .map(|f| {
                             run.records.clear();
                             run.pairs.clear();
                             (f, run)
