@@ -105,10 +105,10 @@ for r in $(seq "$rounds"); do
   warm "$las"
   timed "las-mem-$r" "$bin" convert "$las" -o "$mem_store" --ram-budget "$mem_budget"
 done
-# The other way of writing the store (convert picks mapped writes with 8 threads or more).
+# The other way of writing the store (memory maps; convert writes with positioned writes).
 rm -f "$mem_store"
 warm "$las"
-timed "las-positioned-1" env POINTLET_STORE_WRITES=positioned "$bin" convert "$las" -o "$mem_store" \
+timed "las-mapped-1" env POINTLET_STORE_WRITES=mapped "$bin" convert "$las" -o "$mem_store" \
   --ram-budget "$mem_budget"
 for r in $(seq "$rounds"); do
   rm -f "$ooc_store"

@@ -154,14 +154,13 @@ pub fn config(
     })
 }
 
-/// `POINTLET_STORE_WRITES=auto|mapped|positioned` picks how stores are written (benchmarks
-/// compare the two; docs/BENCHMARKS.md).
+/// `POINTLET_STORE_WRITES=mapped|positioned` picks how stores are written (benchmarks compare
+/// the two; docs/BENCHMARKS.md).
 fn store_writes() -> Result<StoreWrites> {
     match std::env::var("POINTLET_STORE_WRITES") {
-        Err(_) => Ok(StoreWrites::Auto),
-        Ok(v) => StoreWrites::parse(&v).ok_or_else(|| {
-            anyhow!("POINTLET_STORE_WRITES is '{v}': give auto, mapped or positioned")
-        }),
+        Err(_) => Ok(StoreWrites::default()),
+        Ok(v) => StoreWrites::parse(&v)
+            .ok_or_else(|| anyhow!("POINTLET_STORE_WRITES is '{v}': give mapped or positioned")),
     }
 }
 

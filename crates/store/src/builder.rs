@@ -37,24 +37,23 @@ pub struct BuildConfig {
 /// How a store's bytes reach the file. Both ways give the same bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StoreWrites {
-    /// Mapped with 8 threads or more, else positioned: buffered writes into one file are
-    /// serialized by its inode lock (3–5 GB/s whatever the threads), while the page faults of
-    /// mapped writes are spread over the threads — 11.6 GB/s on the 16-core GPU machine but
-    /// slower than one writer thread on 2 cores (docs/BENCHMARKS.md).
-    #[default]
-    Auto,
-    /// Every thread fills memory maps of the ranges it computes, where the file's disk space
-    /// can be reserved (Linux); elsewhere positioned.
-    Mapped,
     /// One writer thread writes each block with positioned writes while the next is computed.
+    #[default]
     Positioned,
+    /// Every thread fills memory maps of the ranges it computes, where the file's disk space
+    /// can be reserved (Linux; elsewhere positioned), run files too. Not the default: buffered
+    /// writes into one file are serialized by its inode lock (3–5 GB/s on the 16-core GPU
+    /// machine) and maps filled by 16 threads reached 11.6 GB/s there, but the one build
+    /// measured, whose pages were faulted in one range at a time, was 7× slower than positioned
+    /// writes; this version faults a block's pages in on every thread and is not measured yet
+    /// (docs/BENCHMARKS.md).
+    Mapped,
 }
 
 impl StoreWrites {
-    /// `auto`, `mapped` or `positioned` (the `POINTLET_STORE_WRITES` variable of `convert`).
+    /// `mapped` or `positioned` (the `POINTLET_STORE_WRITES` variable of `convert`).
     pub fn parse(s: &str) -> Option<Self> {
         match s {
-            "auto" => Some(StoreWrites::Auto),
             "mapped" => Some(StoreWrites::Mapped),
             "positioned" => Some(StoreWrites::Positioned),
             _ => None,
@@ -62,11 +61,7 @@ impl StoreWrites {
     }
 
     fn mapped(self) -> bool {
-        match self {
-            StoreWrites::Auto => rayon::current_num_threads() >= 8,
-            StoreWrites::Mapped => true,
-            StoreWrites::Positioned => false,
-        }
+        self == StoreWrites::Mapped
     }
 }
 
@@ -78,7 +73,7 @@ impl Default for BuildConfig {
             target_pointlets: 100_000,
             seed: 0,
             progress: None,
-            writes: StoreWrites::Auto,
+            writes: StoreWrites::Positioned,
         }
     }
 }

@@ -428,6 +428,7 @@ impl<'a> Emitter<'a> {
                 })?;
             maps.push(map);
         }
+        pio::MappedRange::populate(&maps);
         let mut outs: Vec<&mut [u8]> = maps.iter_mut().map(|m| m.bytes_mut()).collect();
         let results = self.compute(p0, p1, source, &mut outs);
         drop(outs);

@@ -101,6 +101,7 @@ pub(crate) fn write_run(
             for part in order.chunks(chunk_points) {
                 let mut map = pio::MappedRange::new(&file, offset, part.len() * entry)
                     .map_err(io("mapping a temporary run file"))?;
+                pio::MappedRange::populate(std::slice::from_ref(&map));
                 gather_into(part, map.bytes_mut());
                 offset += (part.len() * entry) as u64;
             }
