@@ -1,6 +1,7 @@
 // Level of detail over pointlets and the frame's draw list (virtualized paper §III-B, eq. 2–3).
-// `importance`: one thread per pointlet: frustum-cull the AABB, project its centre and max
-// corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU), workgroup partial
+// `importance`: one thread per pointlet: frustum-cull the AABB (the side planes moved out as
+// far as splats reach, so splats of points beside the view still cover the border), project its
+// centre and max corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU), workgroup partial
 // sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
 // visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
 // origin from double-single (hi + lo f32) coordinates, the spacing of the points it draws (for
@@ -34,8 +35,10 @@ struct LodParams {
     chunk_slots: u32,
     chunk_count: u32,
     partial_count: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // Splats reach this many pixels beyond their point: boxes that close outside the view
+    // still draw (0 for one-pixel points).
+    cull_margin_px: f32,
+    _pad: u32,
 }
 
 struct DrawInfo {
@@ -77,13 +80,15 @@ fn relative_origin(p: Pointlet) -> vec3<f32> {
 }
 
 fn outside(c: array<vec4<f32>, 8>) -> bool {
+    // The side planes moved out by the splat margin (NDC spans the viewport in 2 units).
+    let m = vec2<f32>(1.0) + 2.0 * params.cull_margin_px / params.viewport;
     var out = array<u32, 6>(0u, 0u, 0u, 0u, 0u, 0u);
     for (var k = 0u; k < 8u; k++) {
         let v = c[k];
-        out[0] += u32(v.x < -v.w);
-        out[1] += u32(v.x > v.w);
-        out[2] += u32(v.y < -v.w);
-        out[3] += u32(v.y > v.w);
+        out[0] += u32(v.x < -m.x * v.w);
+        out[1] += u32(v.x > m.x * v.w);
+        out[2] += u32(v.y < -m.y * v.w);
+        out[3] += u32(v.y > m.y * v.w);
         out[4] += u32(v.z < 0.0);
         out[5] += u32(v.z > v.w);
     }

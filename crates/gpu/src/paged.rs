@@ -52,7 +52,8 @@ struct LodParams {
     chunk_slots: u32,
     chunk_count: u32,
     partial_count: u32,
-    _pad: [u32; 2],
+    cull_margin_px: f32,
+    _pad: u32,
 }
 
 /// f64 → (hi, lo) f32 pair with hi + lo ≈ v to ~2^-48 relative: lets the GPU subtract the eye
@@ -509,7 +510,8 @@ impl PagedCloud {
             chunk_slots: self.storage.slots_per_chunk,
             chunk_count: self.storage.chunks.len() as u32,
             partial_count: self.partial_count,
-            _pad: [0; 2],
+            cull_margin_px: settings.splats.reach_px(),
+            _pad: 0,
         };
         ctx.queue
             .write_buffer(&self.lod_params, 0, bytemuck::bytes_of(&params));

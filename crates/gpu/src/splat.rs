@@ -150,6 +150,16 @@ impl SplatSettings {
         matches!(self.size, PointSize::Adaptive { .. })
     }
 
+    /// How many pixels beyond its point a splat (or its ring) can reach: its largest half side
+    /// and the pixel holding the point; 0 for one-pixel points.
+    pub fn reach_px(&self) -> f32 {
+        match self.size {
+            PointSize::Fixed(px) if px <= 1 => 0.0,
+            PointSize::Fixed(px) => (px.min(MAX_SPLAT) / 2 + 1) as f32,
+            PointSize::Adaptive { .. } => (MAX_SPLAT / 2 + 1) as f32,
+        }
+    }
+
     /// True when splats are drawn as billboard quads (points larger than a pixel only).
     pub fn quads(&self) -> bool {
         self.raster == SplatRaster::Quads && !self.is_pixel()

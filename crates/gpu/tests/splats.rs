@@ -367,3 +367,91 @@ fn adaptive_splats_and_their_gap_filling_match_the_reference() {
         }
     }
 }
+
+#[test]
+fn a_paged_cloud_draws_the_static_image_of_its_splats_up_to_the_border() {
+    use pointlet_core::Aabb;
+    use pointlet_gpu::{GpuCloud, PageWrite, PagedCloud, PagedView, PointSet, PointletDesc};
+    let ctx = context();
+    let cam = camera();
+    // A ground plane from under the camera into the distance, cut into 4 × 4 pointlets (dyadic
+    // coordinates, exact in f32): each draws with spacing √(3 · 3 / 16) = 0.75, so splats are
+    // 1–3 pixels wide, and pointlets just beside the view reach into it. The same points as a
+    // static cloud of that spacing (no culling; reference-tested above) give the image.
+    let mut rng = pointlet_core::shuffle::SplitMix64::new(23);
+    let mut set = PointSet {
+        positions: Vec::new(),
+        colors: Vec::new(),
+    };
+    let mut descs = Vec::new();
+    for by in (-40..40).step_by(4) {
+        for bx in (-40..40).step_by(4) {
+            let mut aabb = Aabb::EMPTY;
+            for k in 0..16 {
+                let p = [
+                    (bx + k % 4) as f64 + 0.3125,
+                    (by + k / 4) as f64 + 0.1875,
+                    0.0,
+                ];
+                aabb.grow(p);
+                set.positions.push(p);
+                set.colors.push((rng.next_u64() as u32) | 0xff00_0000);
+            }
+            descs.push(PointletDesc { aabb, count: 16 });
+        }
+    }
+    let n = descs.len();
+    let view = PagedView {
+        bucket: 1e12,
+        accumulate: false,
+    };
+    for shape in SplatShape::ALL {
+        let splats = SplatSettings {
+            size: PointSize::adaptive(),
+            shape,
+            ..Default::default()
+        };
+        let mut cloud = GpuCloud::upload(&ctx, &set, PointEncoding::Full16, 256).expect("upload");
+        cloud.set_spacing(0.75);
+        for variant in CLOSEST {
+            let settings = RenderSettings {
+                variant,
+                splats,
+                ..Default::default()
+            };
+            let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+            let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+            renderer
+                .render(&ctx, &mut cloud, &cam, &settings, &mut target)
+                .expect("static render");
+            let expected = target.read_rgba(&ctx).expect("readback");
+            let mut paged =
+                PagedCloud::new(&ctx, descs.clone(), PointEncoding::Full16, 256, n as u32)
+                    .expect("paged");
+            let pages: Vec<PageWrite> = (0..n)
+                .map(|i| PageWrite {
+                    pointlet: i as u32,
+                    slot: i as u32,
+                    first_point: 0,
+                    positions: &set.positions[i * 16..(i + 1) * 16],
+                    colors: &set.colors[i * 16..(i + 1) * 16],
+                })
+                .collect();
+            paged.write_pages(&pages);
+            for i in 0..n as u32 {
+                paged.set_residency(i, 0, 16, &[i]);
+            }
+            renderer
+                .render_paged(&ctx, &mut paged, &cam, &settings, &view, &mut target, None)
+                .expect("paged render");
+            let got = target.read_rgba(&ctx).expect("readback");
+            assert_eq!(
+                diff(&got, &expected),
+                (0, 0),
+                "{} / {}",
+                variant.name(),
+                shape.name()
+            );
+        }
+    }
+}
