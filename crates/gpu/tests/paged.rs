@@ -10,59 +10,6 @@ use pointlet_gpu::{
     RenderSettings, RenderTarget, Renderer, ScreenSettings,
 };
 
-/// Cuts `set` into pointlets of `k` consecutive points.
-fn pointlets(set: &PointSet, k: usize) -> Vec<PointletDesc> {
-    set.positions
-        .chunks(k)
-        .map(|c| {
-            let mut b = Aabb::EMPTY;
-            c.iter().for_each(|p| b.grow(*p));
-            PointletDesc {
-                aabb: b,
-                count: c.len() as u32,
-            }
-        })
-        .collect()
-}
-
-/// Uploads every point of every pointlet into the pool (pages in order) and publishes it.
-fn make_resident(ctx: &GpuContext, paged: &mut PagedCloud, set: &PointSet, k: usize) {
-    let _ = ctx;
-    let ps = paged.page_size as usize;
-    let mut slot = 0u32;
-    let descs = paged.pointlets().to_vec();
-    let mut pages = Vec::new();
-    let mut published = Vec::new();
-    for (i, desc) in descs.iter().enumerate() {
-        let start = i * k;
-        let mut slots = Vec::new();
-        for first in (0..desc.count as usize).step_by(ps) {
-            let end = (first + ps).min(desc.count as usize);
-            pages.push(pointlet_gpu::PageWrite {
-                pointlet: i as u32,
-                slot,
-                first_point: first as u32,
-                positions: &set.positions[start + first..start + end],
-                colors: &set.colors[start + first..start + end],
-            });
-            slots.push(slot);
-            slot += 1;
-        }
-        published.push((i as u32, desc.count, slots));
-    }
-    paged.write_pages(&pages);
-    for (i, count, slots) in published {
-        paged.set_residency(i, 0, count, &slots);
-    }
-}
-
-fn slots_needed(set: &PointSet, k: usize, ps: usize) -> u32 {
-    set.positions
-        .chunks(k)
-        .map(|c| c.len().div_ceil(ps) as u32)
-        .sum()
-}
-
 fn frame(
     ctx: &GpuContext,
     renderer: &mut Renderer,

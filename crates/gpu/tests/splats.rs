@@ -370,8 +370,7 @@ fn adaptive_splats_and_their_gap_filling_match_the_reference() {
 
 #[test]
 fn a_paged_cloud_draws_the_static_image_of_its_splats_up_to_the_border() {
-    use pointlet_core::Aabb;
-    use pointlet_gpu::{GpuCloud, PageWrite, PagedCloud, PagedView, PointSet, PointletDesc};
+    use pointlet_gpu::{GpuCloud, PagedCloud, PagedView, PointSet};
     let ctx = context();
     let cam = camera();
     // A ground plane from under the camera into the distance, cut into 4 × 4 pointlets (dyadic
@@ -383,24 +382,21 @@ fn a_paged_cloud_draws_the_static_image_of_its_splats_up_to_the_border() {
         positions: Vec::new(),
         colors: Vec::new(),
     };
-    let mut descs = Vec::new();
     for by in (-40..40).step_by(4) {
         for bx in (-40..40).step_by(4) {
-            let mut aabb = Aabb::EMPTY;
             for k in 0..16 {
                 let p = [
                     (bx + k % 4) as f64 + 0.3125,
                     (by + k / 4) as f64 + 0.1875,
                     0.0,
                 ];
-                aabb.grow(p);
                 set.positions.push(p);
                 set.colors.push((rng.next_u64() as u32) | 0xff00_0000);
             }
-            descs.push(PointletDesc { aabb, count: 16 });
         }
     }
-    let n = descs.len();
+    let descs = pointlets(&set, 16);
+    let slots = slots_needed(&set, 16, 256);
     let view = PagedView {
         bucket: 1e12,
         accumulate: false,
@@ -425,22 +421,9 @@ fn a_paged_cloud_draws_the_static_image_of_its_splats_up_to_the_border() {
                 .render(&ctx, &mut cloud, &cam, &settings, &mut target)
                 .expect("static render");
             let expected = target.read_rgba(&ctx).expect("readback");
-            let mut paged =
-                PagedCloud::new(&ctx, descs.clone(), PointEncoding::Full16, 256, n as u32)
-                    .expect("paged");
-            let pages: Vec<PageWrite> = (0..n)
-                .map(|i| PageWrite {
-                    pointlet: i as u32,
-                    slot: i as u32,
-                    first_point: 0,
-                    positions: &set.positions[i * 16..(i + 1) * 16],
-                    colors: &set.colors[i * 16..(i + 1) * 16],
-                })
-                .collect();
-            paged.write_pages(&pages);
-            for i in 0..n as u32 {
-                paged.set_residency(i, 0, 16, &[i]);
-            }
+            let mut paged = PagedCloud::new(&ctx, descs.clone(), PointEncoding::Full16, 256, slots)
+                .expect("paged");
+            make_resident(&ctx, &mut paged, &set, 16);
             renderer
                 .render_paged(&ctx, &mut paged, &cam, &settings, &view, &mut target, None)
                 .expect("paged render");
