@@ -251,9 +251,9 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 }
 
 /// Writes the streams, pointlet table and checksum table of a store being built. Blocks of
-/// whole pointlets may be emitted from any thread and in any order. Into a file with reserved
-/// space (Linux) each block is computed straight into memory maps of its ranges; elsewhere one
-/// writer thread writes blocks in place while the callers compute the next ones.
+/// whole pointlets may be emitted from any thread and in any order. One writer thread writes
+/// them in place while the callers compute the next ones, or, when the plan says `mapped`, each
+/// block is computed straight into memory maps of its ranges.
 pub(crate) struct Emitter<'a> {
     out: &'a EmitPlan<'a>,
     shared: &'a Shared,
@@ -279,7 +279,7 @@ impl<'a> Emitter<'a> {
                 .collect(),
             ..Default::default()
         };
-        let result = if cfg!(target_os = "linux") && out.mapped {
+        let result = if out.mapped {
             body(&Emitter {
                 out,
                 shared: &shared,
@@ -404,8 +404,8 @@ impl<'a> Emitter<'a> {
     }
 
     /// Computes block `[p0, p1)` (its `n` points from sorted position `a`) straight into
-    /// memory maps of its stream ranges, then writes its table rows.
-    #[cfg(target_os = "linux")]
+    /// memory maps of its stream ranges, then writes its table rows (Linux: plans are `mapped`
+    /// only where [`pio::reserve`] could reserve the space).
     fn block_mapped(
         &self,
         p0: u64,
@@ -415,45 +415,41 @@ impl<'a> Emitter<'a> {
         source: &Source<'_>,
     ) -> Result<(), StoreError> {
         let o = self.out;
-        let mut maps = Vec::with_capacity(o.plan.streams.len());
-        for info in &o.plan.streams {
-            let bpp = info.bytes_per_point as usize;
-            let map = pio::MappedRange::new(o.file, info.offset + a * bpp as u64, n * bpp)
-                .map_err(|e| {
-                    StoreError::io(
-                        o.path,
-                        format!("mapping the {} stream", info.kind.name()),
-                        e,
-                    )
-                })?;
-            maps.push(map);
+        #[cfg(not(target_os = "linux"))]
+        {
+            let _ = (p0, p1, a, n, source);
+            Err(StoreError::build(
+                o.path,
+                "internal error: memory-mapped writing is for Linux",
+            ))
         }
-        pio::MappedRange::populate(&maps);
-        let mut outs: Vec<&mut [u8]> = maps.iter_mut().map(|m| m.bytes_mut()).collect();
-        let results = self.compute(p0, p1, source, &mut outs);
-        drop(outs);
-        drop(maps);
-        let (table, checks) = self.finish(p0, p1, &results);
-        let streams = o.rl.fields.len() as u64;
-        pio::write_all_at(o.file, &table, o.plan.table.offset + p0 * TABLE_ENTRY_LEN)
-            .map_err(|e| StoreError::io(o.path, "writing the pointlet table", e))?;
-        pio::write_all_at(o.file, &checks, o.plan.checksums.offset + p0 * 4 * streams)
-            .map_err(|e| StoreError::io(o.path, "writing the checksum table", e))
-    }
-
-    #[cfg(not(target_os = "linux"))]
-    fn block_mapped(
-        &self,
-        _p0: u64,
-        _p1: u64,
-        _a: u64,
-        _n: usize,
-        _source: &Source<'_>,
-    ) -> Result<(), StoreError> {
-        Err(StoreError::build(
-            self.out.path,
-            "internal error: memory-mapped writing is for Linux",
-        ))
+        #[cfg(target_os = "linux")]
+        {
+            let mut maps = Vec::with_capacity(o.plan.streams.len());
+            for info in &o.plan.streams {
+                let bpp = info.bytes_per_point as usize;
+                let map = pio::MappedRange::new(o.file, info.offset + a * bpp as u64, n * bpp)
+                    .map_err(|e| {
+                        StoreError::io(
+                            o.path,
+                            format!("mapping the {} stream", info.kind.name()),
+                            e,
+                        )
+                    })?;
+                maps.push(map);
+            }
+            pio::MappedRange::populate(&maps);
+            let mut outs: Vec<&mut [u8]> = maps.iter_mut().map(|m| m.bytes_mut()).collect();
+            let results = self.compute(p0, p1, source, &mut outs);
+            drop(outs);
+            drop(maps);
+            let (table, checks) = self.finish(p0, p1, &results);
+            let streams = o.rl.fields.len() as u64;
+            pio::write_all_at(o.file, &table, o.plan.table.offset + p0 * TABLE_ENTRY_LEN)
+                .map_err(|e| StoreError::io(o.path, "writing the pointlet table", e))?;
+            pio::write_all_at(o.file, &checks, o.plan.checksums.offset + p0 * 4 * streams)
+                .map_err(|e| StoreError::io(o.path, "writing the checksum table", e))
+        }
     }
 
     /// The table rows and stream checksums of block `[p0, p1)`, whose CRCs join the store's.

@@ -4,7 +4,7 @@
 //! Runs cover consecutive stretches of the input, so ties between runs go to the lower run:
 //! the merged order is the same total order an in-memory sort gives.
 
-use crate::{pio, StoreError};
+use crate::StoreError;
 use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -96,12 +96,14 @@ pub(crate) fn write_run(
             move |e| StoreError::io(&p, what, e)
         };
         let len = (order.len() * entry) as u64;
-        if mapped && pio::reserve(&file, len).map_err(io("reserving space for a run file"))? {
+        if mapped
+            && crate::pio::reserve(&file, len).map_err(io("reserving space for a run file"))?
+        {
             let mut offset = 0u64;
             for part in order.chunks(chunk_points) {
-                let mut map = pio::MappedRange::new(&file, offset, part.len() * entry)
+                let mut map = crate::pio::MappedRange::new(&file, offset, part.len() * entry)
                     .map_err(io("mapping a temporary run file"))?;
-                pio::MappedRange::populate(std::slice::from_ref(&map));
+                crate::pio::MappedRange::populate(std::slice::from_ref(&map));
                 gather_into(part, map.bytes_mut());
                 offset += (part.len() * entry) as u64;
             }
