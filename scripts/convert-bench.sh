@@ -105,11 +105,6 @@ for r in $(seq "$rounds"); do
   warm "$las"
   timed "las-mem-$r" "$bin" convert "$las" -o "$mem_store" --ram-budget "$mem_budget"
 done
-# The other way of writing the store (memory maps; convert writes with positioned writes).
-rm -f "$mem_store"
-warm "$las"
-timed "las-mapped-1" env POINTLET_STORE_WRITES=mapped "$bin" convert "$las" -o "$mem_store" \
-  --ram-budget "$mem_budget"
 for r in $(seq "$rounds"); do
   rm -f "$ooc_store"
   warm "$las"

@@ -3,7 +3,7 @@
 use anyhow::{anyhow, bail, Result};
 use pointlet_core::PointBatch;
 use pointlet_io::PointReader;
-use pointlet_store::{BuildConfig, StoreBuilder, StoreWrites};
+use pointlet_store::{BuildConfig, StoreBuilder};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
 
@@ -150,18 +150,7 @@ pub fn config(
         target_pointlets: pointlets.max(1),
         seed,
         progress: crate::progress::build_bar(),
-        writes: store_writes()?,
     })
-}
-
-/// `POINTLET_STORE_WRITES=mapped|positioned` picks how stores are written (benchmarks compare
-/// the two; docs/BENCHMARKS.md).
-fn store_writes() -> Result<StoreWrites> {
-    match std::env::var("POINTLET_STORE_WRITES") {
-        Err(_) => Ok(StoreWrites::default()),
-        Ok(v) => StoreWrites::parse(&v)
-            .ok_or_else(|| anyhow!("POINTLET_STORE_WRITES is '{v}': give mapped or positioned")),
-    }
 }
 
 /// The sorting budget when none is given, from the machine's RAM (1 GiB where unknown).

@@ -238,6 +238,25 @@ pub fn hilbert_from_morton(morton: u64) -> u64 {
     h
 }
 
+/// [`hilbert_from_morton`] of four codes at once: the table walk is a chain of dependent loads,
+/// and four independent chains keep the core busy while each waits on its loads.
+#[inline]
+pub fn hilbert_from_morton4(morton: [u64; 4]) -> [u64; 4] {
+    let t = tables();
+    let mut state = [0usize; 4];
+    let mut h = [0u64; 4];
+    let mut shift = 63;
+    while shift > 0 {
+        shift -= 9;
+        for i in 0..4 {
+            let e = t.three_level[state[i]][((morton[i] >> shift) & 511) as usize];
+            h[i] = h[i] << 9 | u64::from(e >> 5);
+            state[i] = usize::from(e & 31);
+        }
+    }
+    h
+}
+
 /// Hilbert index of integer cell coordinates (each < 2^21).
 #[inline]
 pub fn hilbert3(x: u32, y: u32, z: u32) -> u64 {
@@ -284,6 +303,19 @@ impl KeyGrid {
     #[inline]
     pub fn hilbert(&self, p: [f64; 3]) -> u64 {
         hilbert_from_morton(self.morton(p))
+    }
+
+    /// [`hilbert`](Self::hilbert) of four points at once (faster per point).
+    #[inline]
+    pub fn hilbert4(&self, p: [[f64; 3]; 4]) -> [u64; 4] {
+        // Spelled out: `array::map` here was not inlined (a call per point, measured).
+        let [a, b, c, d] = p;
+        hilbert_from_morton4([
+            self.morton(a),
+            self.morton(b),
+            self.morton(c),
+            self.morton(d),
+        ])
     }
 }
 

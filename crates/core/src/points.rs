@@ -392,15 +392,11 @@ fn round_half_away(v: f64) -> i64 {
     if v.abs() >= 4_503_599_627_370_496.0 {
         return t; // 2^52 and beyond: every f64 is an integer already
     }
-    // Below 2^52 the fraction v - t is exact.
+    // Below 2^52 the fraction v - t is exact. No branches on it: values read back from integers
+    // fall just below or just above one at random, and mispredicted branches were a large share
+    // of keying points (measured).
     let f = v - t as f64;
-    if f >= 0.5 {
-        t + 1
-    } else if f <= -0.5 {
-        t - 1
-    } else {
-        t
-    }
+    t + i64::from(f >= 0.5) - i64::from(f <= -0.5)
 }
 
 #[cfg(test)]

@@ -1,14 +1,13 @@
-//! How fast one file can be filled: positioned writes against shared memory maps, the two ways
-//! the store builder writes (`StoreWrites`). Linux only.
+//! How fast one file can be filled: positioned writes against shared memory maps (the builder
+//! writes positioned; maps were tried and measured slower there: docs/BENCHMARKS.md). Linux only.
 //!
 //! ```sh
 //! cargo run --release -p pointlet-store --example write_bench -- FILE GIB THREADS MODE
 //! ```
 //! MODE: `pwrite` (positioned writes of 4 MiB blocks), `mmap` (memcpy into a shared map, one
 //! page fault per page) or `mmap-populate` (each 4 MiB range faulted in first with
-//! MADV_POPULATE_WRITE, as the builder does); add `-falloc` to reserve the space first with
-//! fallocate (the builder maps only such files). The file is removed afterwards; the removal
-//! time is printed too (dirty page cache is freed page by page).
+//! MADV_POPULATE_WRITE); add `-falloc` to reserve the space first with fallocate. The file is
+//! removed afterwards; the removal time is printed too (dirty page cache is freed page by page).
 
 #[cfg(target_os = "linux")]
 fn main() -> Result<(), String> {

@@ -30,39 +30,6 @@ pub struct BuildConfig {
     pub seed: u64,
     /// Called now and then with how far the build is.
     pub progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
-    /// How the store's bytes reach the file.
-    pub writes: StoreWrites,
-}
-
-/// How a store's bytes reach the file. Both ways give the same bytes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum StoreWrites {
-    /// One writer thread writes each block with positioned writes while the next is computed.
-    #[default]
-    Positioned,
-    /// Every thread fills memory maps of the ranges it computes, where the file's disk space
-    /// can be reserved (Linux; elsewhere positioned), run files too. Not the default: buffered
-    /// writes into one file are serialized by its inode lock (3–5 GB/s on the 16-core GPU
-    /// machine) and maps filled by 16 threads reached 11.6 GB/s there, but the one build
-    /// measured, whose pages were faulted in one range at a time, was 7× slower than positioned
-    /// writes; this version faults a block's pages in on every thread and is not measured yet
-    /// (docs/BENCHMARKS.md).
-    Mapped,
-}
-
-impl StoreWrites {
-    /// `mapped` or `positioned` (the `POINTLET_STORE_WRITES` variable of `convert`).
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "mapped" => Some(StoreWrites::Mapped),
-            "positioned" => Some(StoreWrites::Positioned),
-            _ => None,
-        }
-    }
-
-    fn mapped(self) -> bool {
-        self == StoreWrites::Mapped
-    }
 }
 
 impl Default for BuildConfig {
@@ -73,7 +40,6 @@ impl Default for BuildConfig {
             target_pointlets: 100_000,
             seed: 0,
             progress: None,
-            writes: StoreWrites::Positioned,
         }
     }
 }
@@ -86,7 +52,6 @@ impl std::fmt::Debug for BuildConfig {
             .field("target_pointlets", &self.target_pointlets)
             .field("seed", &self.seed)
             .field("progress", &self.progress.as_ref().map(|_| "callback"))
-            .field("writes", &self.writes)
             .finish()
     }
 }
@@ -117,7 +82,8 @@ pub struct BuildSummary {
     pub points: u64,
     pub pointlets: u64,
     pub pointlet_size: u64,
-    /// Sorted runs spilled to disk (0 when everything fit the budget).
+    /// Run files spilled to disk ([`runs::RUN_PIECES`] per sorted run; 0 when everything fit
+    /// the budget).
     pub runs: usize,
     /// Bytes of the store file.
     pub bytes: u64,
@@ -173,7 +139,6 @@ pub struct StoreBuilder {
     ram_budget: u64,
     target_pointlets: u64,
     seed: u64,
-    writes: StoreWrites,
     progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
     quantization: Quantization,
     /// The key grid points are keyed with as they come: over the header bounds, snapped to the
@@ -310,7 +275,6 @@ impl StoreBuilder {
             target_pointlets: config.target_pointlets.max(1),
             seed: config.seed,
             progress: config.progress,
-            writes: config.writes,
             quantization,
             grid: KeyGrid::new(&key_bounds),
             key_bounds,
@@ -583,35 +547,40 @@ impl StoreBuilder {
             return Ok(());
         }
         let (rb, chunk) = (self.rl.len, self.io_chunk);
-        let mapped = self.writes.mapped();
-        let spiller = self
-            .spiller
-            .get_or_insert_with(|| Spiller::new(rb, chunk, mapped));
+        let names = self.run_names();
+        let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
         // At most SPILLERS runs are in flight: when all are, the oldest must be on disk now.
         let reuse = if spiller.in_flight() < runs::SPILLERS {
             Run::default()
         } else {
             match spiller.wait(&self.output)? {
-                Some((file, emptied)) => {
-                    self.runs.push(file);
+                Some((files, emptied)) => {
+                    self.runs.extend(files);
                     emptied
                 }
                 None => Run::default(),
             }
         };
         let full = std::mem::replace(&mut self.run, reuse);
-        spiller.start(runs::temp_name(&self.run_dir, &self.stem, "run"), full)?;
+        spiller.start(names, &self.output, full)?;
         if !self.overlap {
             self.drain_spills()?;
         }
         Ok(())
     }
 
+    /// Names for the files of one run ([`runs::write_run`]).
+    fn run_names(&self) -> Vec<PathBuf> {
+        (0..runs::RUN_PIECES)
+            .map(|_| runs::temp_name(&self.run_dir, &self.stem, "run"))
+            .collect()
+    }
+
     /// Waits until every started run is on disk.
     fn drain_spills(&mut self) -> Result<(), StoreError> {
         if let Some(spiller) = self.spiller.as_mut() {
-            while let Some((file, emptied)) = spiller.wait(&self.output)? {
-                self.runs.push(file);
+            while let Some((files, emptied)) = spiller.wait(&self.output)? {
+                self.runs.extend(files);
                 if self.run.pairs.capacity() == 0 {
                     self.run = emptied;
                 }
@@ -691,8 +660,7 @@ impl StoreBuilder {
             let p = output.clone();
             move |e| StoreError::io(&p, what, e)
         };
-        let reserved = pio::allocate(&file, plan.file_len)
-            .map_err(io("reserving disk space for the output"))?;
+        pio::allocate(&file, plan.file_len).map_err(io("reserving disk space for the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
         let out = EmitPlan {
             file: &file,
@@ -703,7 +671,6 @@ impl StoreBuilder {
             points: n,
             seed: self.seed,
             quantization: self.quantization,
-            mapped: reserved && self.writes.mapped(),
         };
         let rb = self.rl.len;
         let progress = self.progress.clone();
@@ -728,7 +695,7 @@ impl StoreBuilder {
             let (records, pairs) = (&self.run.records, &mut self.run.pairs);
             let mut scratch = Vec::new();
             let buckets = sort::partition(pairs, &mut scratch);
-            drop(scratch);
+            pio::discard(scratch);
             writing_from = std::time::Instant::now();
             timings.sorting = writing_from - sorting_from;
             // Buckets are sorted just before the block that needs them, so writing the first
@@ -751,6 +718,8 @@ impl StoreBuilder {
                 Ok(())
             })?
         };
+        pio::discard(std::mem::take(&mut self.run.records));
+        pio::discard(std::mem::take(&mut self.run.pairs));
         let preamble = Preamble {
             version: VERSION,
             file_len: plan.file_len,
@@ -802,14 +771,12 @@ impl StoreBuilder {
             drop(old);
             rekey(&mut run, rb, self.quantization, self.grid);
             sort::sort_pairs(&mut run.pairs);
-            let path = runs::temp_name(&self.run_dir, &self.stem, "run");
-            self.runs.push(runs::write_run(
-                path,
+            self.runs.extend(runs::write_run(
+                self.run_names(),
                 &run.records,
                 &run.pairs,
                 rb,
                 self.io_chunk,
-                self.writes.mapped(),
             )?);
             self.report(BuildPhase::Sorting, done, total);
         }
@@ -1082,16 +1049,32 @@ fn key_and_pack(
     {
         let first = b * BLOCK;
         let raw = &mut raw[..pairs.len()];
-        for (j, (r, pair)) in raw.iter_mut().zip(pairs.iter_mut()).enumerate() {
-            let p = batch.xyz[from + first + j];
+        let xyz = &batch.xyz[from + first..from + first + raw.len()];
+        for (j, (r, p)) in raw.iter_mut().zip(xyz).enumerate() {
             *r = q
-                .quantize(p)
+                .quantize(*p)
                 .map_err(|e| (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
             for a in 0..3 {
                 lo[a] = lo[a].min(r[a]);
                 hi[a] = hi[a].max(r[a]);
             }
-            *pair = (grid.hilbert(q.dequantize(*r)), (index + first + j) as u32);
+        }
+        // Keys four at a time (their table walks overlap), the rest one by one.
+        let (at, done) = (index + first, pairs.len() / 4 * 4);
+        let mut fours = pairs.chunks_exact_mut(4);
+        for (j, four) in fours.by_ref().enumerate() {
+            let r = &raw[4 * j..4 * j + 4];
+            let d = |i: usize| q.dequantize(r[i]);
+            let keys = grid.hilbert4([d(0), d(1), d(2), d(3)]);
+            for (i, (pair, key)) in four.iter_mut().zip(keys).enumerate() {
+                *pair = (key, (at + 4 * j + i) as u32);
+            }
+        }
+        for (i, pair) in fours.into_remainder().iter_mut().enumerate() {
+            *pair = (
+                grid.hilbert(q.dequantize(raw[done + i])),
+                (at + done + i) as u32,
+            );
         }
         rl.pack_block(batch, from + first, raw, recs);
     }

@@ -11,7 +11,6 @@ use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization};
 use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 
@@ -228,9 +227,6 @@ pub(crate) struct EmitPlan<'a> {
     pub points: u64,
     pub seed: u64,
     pub quantization: Quantization,
-    /// Blocks are written through memory maps by the threads that compute them, not by one
-    /// writer thread (the file's space is reserved: [`pio::allocate`]; Linux only).
-    pub mapped: bool,
 }
 
 /// State the emitter shares with its writer thread.
@@ -241,8 +237,6 @@ struct Shared {
     crcs: Mutex<Vec<BlockCrc>>,
     /// The writer's error; it stops at the first.
     failed: Mutex<Option<StoreError>>,
-    /// Pointlets emitted so far, a bit each: mapped blocks must never overlap.
-    claimed: Vec<AtomicU64>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -252,13 +246,12 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// Writes the streams, pointlet table and checksum table of a store being built. Blocks of
 /// whole pointlets may be emitted from any thread and in any order. One writer thread writes
-/// them in place while the callers compute the next ones, or, when the plan says `mapped`, each
-/// block is computed straight into memory maps of its ranges.
+/// them in place while the callers compute the next ones.
 pub(crate) struct Emitter<'a> {
     out: &'a EmitPlan<'a>,
     shared: &'a Shared,
-    /// The writer thread's queue; None when blocks are written through memory maps.
-    jobs: Option<SyncSender<WriteJob>>,
+    /// The writer thread's queue.
+    jobs: SyncSender<WriteJob>,
 }
 
 /// What the emitter computed for one pointlet: its table entry and stream checksums.
@@ -273,37 +266,23 @@ impl<'a> Emitter<'a> {
         body: impl FnOnce(&Emitter<'_>) -> Result<R, StoreError>,
     ) -> Result<(R, u32, u32), StoreError> {
         let pointlets = out.points.div_ceil(out.k);
-        let shared = Shared {
-            claimed: (0..pointlets.div_ceil(64))
-                .map(|_| AtomicU64::new(0))
-                .collect(),
-            ..Default::default()
-        };
-        let result = if out.mapped {
-            body(&Emitter {
+        let shared = Shared::default();
+        // Two blocks queued keep the writer busy while bounding the memory in flight.
+        let (jobs, queue) = sync_channel::<WriteJob>(2);
+        let result = std::thread::scope(|scope| {
+            let writer = scope.spawn(|| write_loop(out, &shared, queue));
+            let emitter = Emitter {
                 out,
                 shared: &shared,
-                jobs: None,
-            })
-        } else {
-            // Two blocks queued keep the writer busy while bounding the memory in flight.
-            let (jobs, queue) = sync_channel::<WriteJob>(2);
-            std::thread::scope(|scope| {
-                let writer = scope.spawn(|| write_loop(out, &shared, queue));
-                let emitter = Emitter {
-                    out,
-                    shared: &shared,
-                    jobs: Some(jobs),
-                };
-                let result = body(&emitter);
-                drop(emitter);
-                let joined = writer.join();
-                if joined.is_err() {
-                    return Err(StoreError::build(out.path, "the writing thread panicked"));
-                }
-                result
-            })
-        };
+                jobs,
+            };
+            let result = body(&emitter);
+            drop(emitter);
+            if writer.join().is_err() {
+                return Err(StoreError::build(out.path, "the writing thread panicked"));
+            }
+            result
+        });
         if let Some(e) = lock(&shared.failed).take() {
             return Err(e);
         }
@@ -362,13 +341,9 @@ impl<'a> Emitter<'a> {
                 format!("internal error: pointlets {p0}..{p1} do not exist"),
             ));
         }
-        self.claim(p0, p1)?;
         let a = p0 * o.k;
         let n = ((p1 * o.k).min(o.points) - a) as usize;
         let rl = o.rl;
-        let Some(jobs) = &self.jobs else {
-            return self.block_mapped(p0, p1, a, n, source);
-        };
         let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
         streams.resize_with(rl.fields.len(), Vec::new);
         // Every byte is overwritten: reused buffers of the right size are not zeroed again.
@@ -378,78 +353,15 @@ impl<'a> Emitter<'a> {
         let mut outs: Vec<&mut [u8]> = streams.iter_mut().map(|b| b.as_mut_slice()).collect();
         let results = self.compute(p0, p1, source, &mut outs);
         let (table, checks) = self.finish(p0, p1, &results);
-        jobs.send(WriteJob {
-            first: a,
-            p0,
-            streams,
-            table,
-            checks,
-        })
-        .map_err(|_| self.writer_stopped())
-    }
-
-    /// Marks pointlets `[p0, p1)` emitted; fails if any already was.
-    fn claim(&self, p0: u64, p1: u64) -> Result<(), StoreError> {
-        for p in p0..p1 {
-            let bit = 1u64 << (p % 64);
-            let word = &self.shared.claimed[(p / 64) as usize];
-            if word.fetch_or(bit, Ordering::AcqRel) & bit != 0 {
-                return Err(StoreError::build(
-                    self.out.path,
-                    format!("internal error: pointlet {p} was emitted twice"),
-                ));
-            }
-        }
-        Ok(())
-    }
-
-    /// Computes block `[p0, p1)` (its `n` points from sorted position `a`) straight into
-    /// memory maps of its stream ranges, then writes its table rows (Linux: plans are `mapped`
-    /// only where [`pio::reserve`] could reserve the space).
-    fn block_mapped(
-        &self,
-        p0: u64,
-        p1: u64,
-        a: u64,
-        n: usize,
-        source: &Source<'_>,
-    ) -> Result<(), StoreError> {
-        let o = self.out;
-        #[cfg(not(target_os = "linux"))]
-        {
-            let _ = (p0, p1, a, n, source);
-            Err(StoreError::build(
-                o.path,
-                "internal error: memory-mapped writing is for Linux",
-            ))
-        }
-        #[cfg(target_os = "linux")]
-        {
-            let mut maps = Vec::with_capacity(o.plan.streams.len());
-            for info in &o.plan.streams {
-                let bpp = info.bytes_per_point as usize;
-                let map = pio::MappedRange::new(o.file, info.offset + a * bpp as u64, n * bpp)
-                    .map_err(|e| {
-                        StoreError::io(
-                            o.path,
-                            format!("mapping the {} stream", info.kind.name()),
-                            e,
-                        )
-                    })?;
-                maps.push(map);
-            }
-            pio::MappedRange::populate(&maps);
-            let mut outs: Vec<&mut [u8]> = maps.iter_mut().map(|m| m.bytes_mut()).collect();
-            let results = self.compute(p0, p1, source, &mut outs);
-            drop(outs);
-            drop(maps);
-            let (table, checks) = self.finish(p0, p1, &results);
-            let streams = o.rl.fields.len() as u64;
-            pio::write_all_at(o.file, &table, o.plan.table.offset + p0 * TABLE_ENTRY_LEN)
-                .map_err(|e| StoreError::io(o.path, "writing the pointlet table", e))?;
-            pio::write_all_at(o.file, &checks, o.plan.checksums.offset + p0 * 4 * streams)
-                .map_err(|e| StoreError::io(o.path, "writing the checksum table", e))
-        }
+        self.jobs
+            .send(WriteJob {
+                first: a,
+                p0,
+                streams,
+                table,
+                checks,
+            })
+            .map_err(|_| self.writer_stopped())
     }
 
     /// The table rows and stream checksums of block `[p0, p1)`, whose CRCs join the store's.

@@ -71,17 +71,17 @@ pub fn write_all_at(_file: &File, _buf: &[u8], _offset: u64) -> io::Result<()> {
 
 /// Sizes a new file to `len` bytes with its disk space reserved where the file system can
 /// (a full disk fails here, before the work, and the kernel then writes into allocated blocks,
-/// which is faster); elsewhere the file is only extended. True when the space is reserved.
-pub fn allocate(file: &File, len: u64) -> io::Result<bool> {
+/// which is faster); elsewhere the file is only extended.
+pub fn allocate(file: &File, len: u64) -> io::Result<()> {
     if reserve(file, len)? {
-        return Ok(true);
+        return Ok(());
     }
-    file.set_len(len).map(|()| false)
+    file.set_len(len)
 }
 
 /// Sizes a new file to `len` bytes with its disk space reserved, if the file system can (true);
 /// otherwise leaves the file as it was (false).
-pub fn reserve(file: &File, len: u64) -> io::Result<bool> {
+fn reserve(file: &File, len: u64) -> io::Result<bool> {
     #[cfg(target_os = "linux")]
     {
         use std::os::unix::io::AsRawFd;
@@ -103,98 +103,62 @@ pub fn reserve(file: &File, len: u64) -> io::Result<bool> {
     Ok(false)
 }
 
-/// A writable shared memory map of one byte range of a file whose space is reserved
-/// ([`reserve`]): many threads can fill such ranges at once, where buffered writes into one file
-/// are serialized by its inode lock (3–5 GB/s whatever the threads on the 16-core GPU machine,
-/// against 11.6 GB/s for 16 threads filling a map whose pages they fault in ahead with
-/// MADV_POPULATE_WRITE; docs/BENCHMARKS.md). Unmapped on drop; the bytes stay in the page cache
-/// like written ones.
-#[cfg(target_os = "linux")]
-pub struct MappedRange {
-    map: *mut libc::c_void,
-    map_len: usize,
-    /// The range's first byte within the map (maps start on a page).
-    skip: usize,
-    len: usize,
-}
-
-// SAFETY: the map is owned memory like a Vec's; nothing else refers to it.
-#[cfg(target_os = "linux")]
-unsafe impl Send for MappedRange {}
-// SAFETY: shared access only reads the pointer and lengths (populate's advice).
-#[cfg(target_os = "linux")]
-unsafe impl Sync for MappedRange {}
-
-#[cfg(target_os = "linux")]
-impl MappedRange {
-    /// Maps `len` bytes at `offset` of `file`. The caller must not map overlapping ranges of a
-    /// file at once, and the file must stay at least `offset + len` bytes long while mapped (a
-    /// shorter file would fault on access).
-    pub fn new(file: &File, offset: u64, len: usize) -> io::Result<Self> {
+/// Drops the whole pages inside bytes `[offset, offset + len)` of a temporary file whose bytes
+/// there were read for the last time: their page cache goes at once, dirty pages without ever
+/// being written to the disk, where removing the file at the end waited for the writeback of
+/// gigabytes (about 2 s of an out-of-core build on the GPU machine). Best effort: file systems
+/// without holes keep the pages until the file is removed.
+pub fn discard_range(file: &File, offset: u64, len: u64) {
+    #[cfg(target_os = "linux")]
+    {
         use std::os::unix::io::AsRawFd;
-        // SAFETY: sysconf has no preconditions.
-        let page = (unsafe { libc::sysconf(libc::_SC_PAGESIZE) }).max(4096) as u64;
-        let start = offset - offset % page;
-        let skip = (offset - start) as usize;
-        let map_len = skip + len.max(1);
-        let at = libc::off_t::try_from(start)
-            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "offset out of range"))?;
-        // SAFETY: a fresh shared mapping of a descriptor this `File` owns; failures return
-        // MAP_FAILED, checked below.
-        let map = unsafe {
-            libc::mmap(
-                std::ptr::null_mut(),
-                map_len,
-                libc::PROT_READ | libc::PROT_WRITE,
-                libc::MAP_SHARED,
-                file.as_raw_fd(),
-                at,
-            )
-        };
-        if map == libc::MAP_FAILED {
-            return Err(io::Error::last_os_error());
+        let page = page_size();
+        let (from, to) = (offset.div_ceil(page) * page, (offset + len) / page * page);
+        let n = to.saturating_sub(from);
+        if let (Ok(at), Ok(n)) = (libc::off_t::try_from(from), libc::off_t::try_from(n)) {
+            if n > 0 {
+                // SAFETY: a plain system call on a descriptor this `File` owns.
+                unsafe {
+                    libc::fallocate(
+                        file.as_raw_fd(),
+                        libc::FALLOC_FL_PUNCH_HOLE | libc::FALLOC_FL_KEEP_SIZE,
+                        at,
+                        n,
+                    )
+                };
+            }
         }
-        Ok(Self {
-            map,
-            map_len,
-            skip,
-            len,
-        })
     }
+    let _ = (file, offset, len);
+}
 
-    /// Faults the pages of `ranges` in ahead of writing, 1 MiB pieces on every thread at once:
-    /// one fault per page taken by the writes themselves is several times slower, and one
-    /// thread faulting a whole block in was 7× slower than positioned writes (measured).
-    pub fn populate(ranges: &[MappedRange]) {
+/// Frees a large vector on every thread: its pages go back to the kernel in parallel pieces,
+/// where one thread freeing gigabytes at once takes a large share of a second.
+pub fn discard<T: Copy + Send>(v: Vec<T>) {
+    #[cfg(target_os = "linux")]
+    {
         use rayon::prelude::*;
-        const MADV_POPULATE_WRITE: libc::c_int = 23;
-        const PIECE: usize = 1 << 20;
-        let pieces: Vec<(usize, usize)> = ranges
-            .iter()
-            .flat_map(|r| {
-                let base = r.map as usize;
-                (0..r.map_len.div_ceil(PIECE))
-                    .map(move |k| (base + k * PIECE, PIECE.min(r.map_len - k * PIECE)))
-            })
-            .collect();
-        pieces.into_par_iter().for_each(|(at, len)| {
-            // SAFETY: advice on pages of a live mapping. Kernels before 5.14 answer EINVAL and
-            // the pages are faulted in as they are written instead.
-            unsafe { libc::madvise(at as *mut libc::c_void, len, MADV_POPULATE_WRITE) };
-        });
+        const PIECE: usize = 8 << 20;
+        let start = v.as_ptr() as usize;
+        let end = start + v.capacity() * std::mem::size_of::<T>();
+        let (from, to) = (start.div_ceil(PIECE) * PIECE, end / PIECE * PIECE);
+        if to > from {
+            (from..to)
+                .step_by(PIECE)
+                .collect::<Vec<_>>()
+                .into_par_iter()
+                .for_each(|at| {
+                    // SAFETY: whole pages of the vector's own allocation, which no one reads again:
+                    // it is dropped below.
+                    unsafe { libc::madvise(at as *mut libc::c_void, PIECE, libc::MADV_DONTNEED) };
+                });
+        }
     }
-
-    pub fn bytes_mut(&mut self) -> &mut [u8] {
-        // SAFETY: `skip + len` ≤ `map_len` bytes are mapped readable and writable for as long
-        // as self lives, and no other slice of them exists (the borrow is exclusive).
-        unsafe { std::slice::from_raw_parts_mut((self.map as *mut u8).add(self.skip), self.len) }
-    }
+    drop(v);
 }
 
 #[cfg(target_os = "linux")]
-impl Drop for MappedRange {
-    fn drop(&mut self) {
-        // SAFETY: unmaps exactly the mapping made in `new`, once.
-        unsafe { libc::munmap(self.map, self.map_len) };
-    }
+fn page_size() -> u64 {
+    // SAFETY: sysconf has no preconditions.
+    (unsafe { libc::sysconf(libc::_SC_PAGESIZE) }).max(4096) as u64
 }
