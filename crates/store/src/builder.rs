@@ -101,6 +101,8 @@ pub struct BuildTimings {
     pub sorting: std::time::Duration,
     /// Merging (out of core), shuffling and writing the store.
     pub writing: std::time::Duration,
+    /// Of `writing`, the time the writer thread spent in writes (it waits for blocks otherwise).
+    pub writer_busy: std::time::Duration,
 }
 
 /// A keying task's result: raw bounds of its points, or the first bad point and why.
@@ -675,7 +677,7 @@ impl StoreBuilder {
         let rb = self.rl.len;
         let progress = self.progress.clone();
         let mut writing_from = std::time::Instant::now();
-        let ((), table_crc, checksums_crc) = if spilled {
+        let ((), table_crc, checksums_crc, writer_busy) = if spilled {
             timings.sorting = writing_from - sorting_from;
             let runs = std::mem::take(&mut self.runs);
             let merge_budget = (self.ram_budget / 2) as usize;
@@ -754,6 +756,7 @@ impl StoreBuilder {
             bounds,
             timings: BuildTimings {
                 writing: writing_from.elapsed(),
+                writer_busy,
                 ..timings
             },
         })

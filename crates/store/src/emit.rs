@@ -12,7 +12,9 @@ use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::atomic::Ordering;
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// Where each stream's value sits inside a record.
 #[derive(Clone, Debug)]
@@ -237,6 +239,8 @@ struct Shared {
     crcs: Mutex<Vec<BlockCrc>>,
     /// The writer's error; it stops at the first.
     failed: Mutex<Option<StoreError>>,
+    /// Nanoseconds the writer spent writing (the rest it waited for blocks).
+    busy_ns: std::sync::atomic::AtomicU64,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -260,11 +264,11 @@ type PointletResult = (PointletEntry, Vec<u32>);
 impl<'a> Emitter<'a> {
     /// Runs `body` with an emitter, then waits for every write. Returns the body's result and
     /// the CRC32s of the pointlet table and of the checksum table; fails unless the body
-    /// emitted every pointlet exactly once.
+    /// emitted every pointlet exactly once. Also returns how long the writer was busy.
     pub fn run<R>(
         out: &EmitPlan<'_>,
         body: impl FnOnce(&Emitter<'_>) -> Result<R, StoreError>,
-    ) -> Result<(R, u32, u32), StoreError> {
+    ) -> Result<(R, u32, u32, Duration), StoreError> {
         let pointlets = out.points.div_ceil(out.k);
         let shared = Shared::default();
         // Two blocks queued keep the writer busy while bounding the memory in flight.
@@ -305,7 +309,8 @@ impl<'a> Emitter<'a> {
                 format!("internal error: the pointlets emitted do not cover 0..{pointlets} once"),
             ));
         }
-        Ok((result, table.finalize(), checks.finalize()))
+        let busy = Duration::from_nanos(shared.busy_ns.load(Ordering::Relaxed));
+        Ok((result, table.finalize(), checks.finalize(), busy))
     }
 
     pub fn k(&self) -> u64 {
@@ -454,6 +459,7 @@ fn write_loop(out: &EmitPlan<'_>, shared: &Shared, queue: Receiver<WriteJob>) {
     let plan = out.plan;
     let streams = out.rl.fields.len() as u64;
     for job in queue {
+        let started = Instant::now();
         let mut result = Ok(());
         for (buf, info) in job.streams.iter().zip(&plan.streams) {
             let at = info.offset + job.first * info.bytes_per_point as u64;
@@ -478,6 +484,8 @@ fn write_loop(out: &EmitPlan<'_>, shared: &Shared, queue: Receiver<WriteJob>) {
                 pio::write_all_at(out.file, &job.checks, checks_at)
                     .map_err(|e| StoreError::io(out.path, "writing the checksum table", e))
             });
+        let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        shared.busy_ns.fetch_add(ns, Ordering::Relaxed);
         if let Err(e) = result {
             *lock(&shared.failed) = Some(e);
             return;
