@@ -82,8 +82,7 @@ pub struct BuildSummary {
     pub points: u64,
     pub pointlets: u64,
     pub pointlet_size: u64,
-    /// Run files spilled to disk ([`runs::RUN_PIECES`] per sorted run; 0 when everything fit
-    /// the budget).
+    /// Sorted runs spilled to disk (0 when everything fit the budget).
     pub runs: usize,
     /// Bytes of the store file.
     pub bytes: u64,
@@ -549,40 +548,32 @@ impl StoreBuilder {
             return Ok(());
         }
         let (rb, chunk) = (self.rl.len, self.io_chunk);
-        let names = self.run_names();
         let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
         // At most SPILLERS runs are in flight: when all are, the oldest must be on disk now.
         let reuse = if spiller.in_flight() < runs::SPILLERS {
             Run::default()
         } else {
             match spiller.wait(&self.output)? {
-                Some((files, emptied)) => {
-                    self.runs.extend(files);
+                Some((file, emptied)) => {
+                    self.runs.push(file);
                     emptied
                 }
                 None => Run::default(),
             }
         };
         let full = std::mem::replace(&mut self.run, reuse);
-        spiller.start(names, &self.output, full)?;
+        spiller.start(runs::temp_name(&self.run_dir, &self.stem, "run"), full)?;
         if !self.overlap {
             self.drain_spills()?;
         }
         Ok(())
     }
 
-    /// Names for the files of one run ([`runs::write_run`]).
-    fn run_names(&self) -> Vec<PathBuf> {
-        (0..runs::RUN_PIECES)
-            .map(|_| runs::temp_name(&self.run_dir, &self.stem, "run"))
-            .collect()
-    }
-
     /// Waits until every started run is on disk.
     fn drain_spills(&mut self) -> Result<(), StoreError> {
         if let Some(spiller) = self.spiller.as_mut() {
-            while let Some((files, emptied)) = spiller.wait(&self.output)? {
-                self.runs.extend(files);
+            while let Some((file, emptied)) = spiller.wait(&self.output)? {
+                self.runs.push(file);
                 if self.run.pairs.capacity() == 0 {
                     self.run = emptied;
                 }
@@ -774,8 +765,9 @@ impl StoreBuilder {
             drop(old);
             rekey(&mut run, rb, self.quantization, self.grid);
             sort::sort_pairs(&mut run.pairs);
-            self.runs.extend(runs::write_run(
-                self.run_names(),
+            let path = runs::temp_name(&self.run_dir, &self.stem, "run");
+            self.runs.push(runs::write_run(
+                path,
                 &run.records,
                 &run.pairs,
                 rb,

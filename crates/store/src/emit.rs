@@ -355,18 +355,6 @@ impl<'a> Emitter<'a> {
         for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
             buf.resize(n * bpp, 0);
         }
-        // The writer is the bottleneck of a large build; its page cache comes in on every
-        // thread here, so that its writes only copy.
-        let ranges: Vec<(u64, u64)> = o
-            .plan
-            .streams
-            .iter()
-            .map(|i| {
-                let b = u64::from(i.bytes_per_point);
-                (i.offset + a * b, n as u64 * b)
-            })
-            .collect();
-        pio::prefill(o.file, &ranges);
         let mut outs: Vec<&mut [u8]> = streams.iter_mut().map(|b| b.as_mut_slice()).collect();
         let results = self.compute(p0, p1, source, &mut outs);
         let (table, checks) = self.finish(p0, p1, &results);

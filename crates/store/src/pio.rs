@@ -103,63 +103,6 @@ fn reserve(file: &File, len: u64) -> io::Result<bool> {
     Ok(false)
 }
 
-/// Drops the whole pages inside bytes `[offset, offset + len)` of a temporary file whose bytes
-/// there were read for the last time: their page cache goes at once, dirty pages without ever
-/// being written to the disk, where removing the file at the end waited for the writeback of
-/// gigabytes (about 2 s of an out-of-core build on the GPU machine). Best effort: file systems
-/// without holes keep the pages until the file is removed.
-pub fn discard_range(file: &File, offset: u64, len: u64) {
-    #[cfg(target_os = "linux")]
-    {
-        use std::os::unix::io::AsRawFd;
-        let page = page_size();
-        let (from, to) = (offset.div_ceil(page) * page, (offset + len) / page * page);
-        let n = to.saturating_sub(from);
-        if let (Ok(at), Ok(n)) = (libc::off_t::try_from(from), libc::off_t::try_from(n)) {
-            if n > 0 {
-                // SAFETY: a plain system call on a descriptor this `File` owns.
-                unsafe {
-                    libc::fallocate(
-                        file.as_raw_fd(),
-                        libc::FALLOC_FL_PUNCH_HOLE | libc::FALLOC_FL_KEEP_SIZE,
-                        at,
-                        n,
-                    )
-                };
-            }
-        }
-    }
-    let _ = (file, offset, len);
-}
-
-/// Puts page cache for byte ranges `(offset, len)` of a file in ahead of writing them, in 1 MiB
-/// pieces on every thread: bytes never written read as zeros without disk I/O, and the writes
-/// then only copy into pages already there. Buffered writes into one file run one at a time
-/// (its inode lock) and allocating their pages was most of their cost (a writer busy 0.67–0.88
-/// s without, 0.29–0.33 s with, for a 20 M-point store on the 2-core dev machine). Best effort.
-pub fn prefill(file: &File, ranges: &[(u64, u64)]) {
-    #[cfg(target_os = "linux")]
-    {
-        use rayon::prelude::*;
-        use std::os::unix::io::AsRawFd;
-        const PIECE: u64 = 1 << 20;
-        let pieces: Vec<(u64, u64)> = ranges
-            .iter()
-            .flat_map(|&(at, len)| {
-                (at..at + len)
-                    .step_by(PIECE as usize)
-                    .map(move |p| (p, PIECE.min(at + len - p)))
-            })
-            .collect();
-        let fd = file.as_raw_fd();
-        pieces.into_par_iter().for_each(|(at, len)| {
-            // SAFETY: a plain system call on a descriptor the caller's `File` owns.
-            unsafe { libc::readahead(fd, at as libc::off64_t, len as usize) };
-        });
-    }
-    let _ = (file, ranges);
-}
-
 /// Frees a large vector on every thread: its pages go back to the kernel in parallel pieces,
 /// where one thread freeing gigabytes at once takes a large share of a second.
 pub fn discard<T: Copy + Send>(v: Vec<T>) {
@@ -183,10 +126,4 @@ pub fn discard<T: Copy + Send>(v: Vec<T>) {
         }
     }
     drop(v);
-}
-
-#[cfg(target_os = "linux")]
-fn page_size() -> u64 {
-    // SAFETY: sysconf has no preconditions.
-    (unsafe { libc::sysconf(libc::_SC_PAGESIZE) }).max(4096) as u64
 }

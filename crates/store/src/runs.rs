@@ -5,6 +5,7 @@
 //! the merged order is the same total order an in-memory sort gives.
 
 use crate::StoreError;
+use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::fs::{File, OpenOptions};
@@ -59,68 +60,53 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
     ))
 }
 
-/// Files a spilled run is written as, each written by its own thread: buffered writes into one
-/// file are serialized by its inode lock (3–5 GB/s on the 16-core GPU machine), which bounded
-/// an out-of-core build's reading there. Each piece is a sorted stretch of the run, so the
-/// merge takes it as a run of its own (ties keep their order: pieces are listed in run order).
-pub(crate) const RUN_PIECES: usize = 4;
-
-/// Writes the records of an in-memory run in sorted `order` as up to `paths.len()` run files,
-/// consecutive stretches of the order, on as many threads at once.
+/// Writes the records of an in-memory run in sorted `order` as a run file, one chunk written
+/// while the next is gathered.
 pub(crate) fn write_run(
-    paths: Vec<PathBuf>,
-    records: &[u8],
-    order: &[(u64, u32)],
-    rb: usize,
-    chunk_bytes: usize,
-) -> Result<Vec<RunFile>, StoreError> {
-    let pieces = paths.len().max(1);
-    let per_piece = order.len().div_ceil(pieces).max(1);
-    // Two I/O chunks in all, as one writer double-buffering had.
-    let buf_points = (2 * chunk_bytes / pieces / (8 + rb)).max(1);
-    std::thread::scope(|scope| {
-        let workers: Vec<_> = paths
-            .into_iter()
-            .zip(order.chunks(per_piece))
-            .map(|(path, part)| {
-                let failed = path.clone();
-                let worker = scope.spawn(move || write_piece(path, records, part, rb, buf_points));
-                (failed, worker)
-            })
-            .collect();
-        workers
-            .into_iter()
-            .map(|(path, w)| {
-                w.join().unwrap_or_else(|_| {
-                    Err(StoreError::build(&path, "a run writing thread panicked"))
-                })
-            })
-            .collect()
-    })
-}
-
-/// Writes one stretch of a sorted run: entries `[key][record]`, gathered a buffer at a time.
-fn write_piece(
     path: PathBuf,
     records: &[u8],
     order: &[(u64, u32)],
     rb: usize,
-    buf_points: usize,
+    chunk_bytes: usize,
 ) -> Result<RunFile, StoreError> {
     let (mut run, mut file) = create_run(path)?;
     let entry = 8 + rb;
+    let chunk_points = (chunk_bytes / entry).max(1);
+    let gather_into = |part: &[(u64, u32)], out: &mut [u8]| {
+        out.par_chunks_mut(4096 * entry)
+            .zip(part.par_chunks(4096))
+            .for_each(|(o, keys)| {
+                for (e, (key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
+                    let at = *idx as usize * rb;
+                    e[..8].copy_from_slice(&key.to_le_bytes());
+                    e[8..].copy_from_slice(&records[at..at + rb]);
+                }
+            });
+    };
     run.count = order.len() as u64;
     run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
-    let mut buf = Vec::with_capacity(buf_points.min(order.len()) * entry);
-    for part in order.chunks(buf_points) {
+    let gather = |part: &[(u64, u32)], buf: &mut Vec<u8>| {
         buf.clear();
-        for (key, idx) in part {
-            let at = *idx as usize * rb;
-            buf.extend_from_slice(&key.to_le_bytes());
-            buf.extend_from_slice(&records[at..at + rb]);
-        }
-        file.write_all(&buf)
-            .map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
+        buf.resize(part.len() * entry, 0);
+        gather_into(part, buf);
+    };
+    let mut parts = order.chunks(chunk_points);
+    let mut ready = Vec::new();
+    let mut next = Vec::new();
+    if let Some(first) = parts.next() {
+        gather(first, &mut ready);
+    }
+    while !ready.is_empty() {
+        let part = parts.next();
+        let (written, ()) = rayon::join(
+            || file.write_all(&ready),
+            || match part {
+                Some(p) => gather(p, &mut next),
+                None => next.clear(),
+            },
+        );
+        written.map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
+        std::mem::swap(&mut ready, &mut next);
     }
     Ok(run)
 }
@@ -159,7 +145,7 @@ pub(crate) struct Run {
     pub pairs: Vec<(u64, u32)>,
 }
 
-type SpillResult = Result<(Vec<RunFile>, Run), StoreError>;
+type SpillResult = Result<(RunFile, Run), StoreError>;
 
 /// Runs sorted and written at once, each to its own file. Three at once (smaller runs, files
 /// written in parallel) measured no faster than one on either machine (docs/BENCHMARKS.md),
@@ -167,7 +153,7 @@ type SpillResult = Result<(Vec<RunFile>, Run), StoreError>;
 pub(crate) const SPILLERS: usize = 1;
 
 /// A run to spill, and where to send the result.
-type SpillJob = (Vec<PathBuf>, Run, SyncSender<SpillResult>);
+type SpillJob = (PathBuf, Run, SyncSender<SpillResult>);
 
 /// Sorts and writes full runs on threads of their own while the next run fills; hands the
 /// emptied buffers back for reuse. Results are taken in the order the runs were started.
@@ -217,23 +203,17 @@ impl Spiller {
     }
 
     /// Queues a full run to be written to `path`.
-    /// Queues a full run to be written to the files `paths` ([`write_run`]).
-    pub fn start(
-        &mut self,
-        paths: Vec<PathBuf>,
-        output: &Path,
-        run: Run,
-    ) -> Result<(), StoreError> {
-        let jobs = self.jobs.as_ref().ok_or_else(|| Self::stopped(output))?;
+    pub fn start(&mut self, path: PathBuf, run: Run) -> Result<(), StoreError> {
+        let jobs = self.jobs.as_ref().ok_or_else(|| Self::stopped(&path))?;
         let (reply, result) = sync_channel(1);
-        jobs.send((paths, run, reply))
-            .map_err(|_| Self::stopped(output))?;
+        jobs.send((path.clone(), run, reply))
+            .map_err(|_| Self::stopped(&path))?;
         self.pending.push_back(result);
         Ok(())
     }
 
     /// Waits for the oldest run in flight; `None` when none is.
-    pub fn wait(&mut self, output: &Path) -> Result<Option<(Vec<RunFile>, Run)>, StoreError> {
+    pub fn wait(&mut self, output: &Path) -> Result<Option<(RunFile, Run)>, StoreError> {
         let Some(result) = self.pending.pop_front() else {
             return Ok(None);
         };
@@ -298,9 +278,6 @@ impl<'a> Cursor<'a> {
         let at = self.next * self.entry as u64;
         crate::pio::read_exact_at(self.slice.file, &mut self.buf[..bytes], at)
             .map_err(|e| StoreError::io(&self.slice.run.path, "reading a temporary run file", e))?;
-        // Every entry of a run is read once, and whole pages inside this read hold only entries
-        // of this stretch: their page cache can go now.
-        crate::pio::discard_range(self.slice.file, at, bytes as u64);
         self.pos = 0;
         self.end = bytes;
         self.next += n as u64;
@@ -359,15 +336,11 @@ pub(crate) fn merge(
     Ok(count)
 }
 
-/// Opens every run for positioned reads (and writable, so that pages read can be dropped:
-/// [`crate::pio::discard_range`]).
+/// Opens every run for positioned reads.
 pub(crate) fn open_runs(runs: &[RunFile]) -> Result<Vec<File>, StoreError> {
     runs.iter()
         .map(|r| {
-            OpenOptions::new()
-                .read(true)
-                .write(true)
-                .open(&r.path)
+            File::open(&r.path)
                 .map_err(|e| StoreError::io(&r.path, "opening a temporary run file", e))
         })
         .collect()
