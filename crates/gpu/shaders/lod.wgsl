@@ -1,15 +1,15 @@
 // Level of detail over pointlets and the frame's draw list (virtualized paper §III-B, eq. 2–3).
-// `importance`: one thread per pointlet: frustum-cull the AABB (the side planes moved out as
-// far as splats reach, so splats of points beside the view still cover the border), project its
-// centre and max corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU),
-// workgroup partial sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
+// `importance`: one thread per pointlet: frustum-cull the AABB (the side planes moved out as far as
+// splats reach, so splats of points beside the view still cover the border), project its centre and
+// max corner, l_i = γ_i · ‖(v/2)(p_center − p_max)‖ (γ precomputed on the CPU), workgroup partial
+// sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
 // visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
 // origin from double-single (hi + lo f32) coordinates, the spacing of the points it draws (for
-// adaptive splats), and one draw entry per resident page of the range to draw — the whole
-// resident prefix up to the request, or when accumulating (camera still) only the points not
-// drawn yet. Entries go to the list of the chunk holding the page; `finalize` turns the counts
-// into indirect dispatch sizes and the draw arguments of billboard quads. Replaces the paper's
-// per-frame buffer compaction: only pages change, and drawing reads them where they are.
+// adaptive splats), and one draw entry per resident page of the range to draw — the whole resident
+// prefix up to the request, or when accumulating (camera still) only the points not drawn yet.
+// Entries go to the list of the chunk holding the page; `finalize` turns the counts into indirect
+// dispatch sizes and the draw arguments of billboard quads. Replaces the paper's per-frame buffer
+// compaction: only pages change, and drawing reads them where they are.
 
 struct Pointlet {
     origin_hi: vec3<f32>,

@@ -11,7 +11,7 @@ use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization};
 use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -240,7 +240,7 @@ struct Shared {
     /// The writer's error; it stops at the first.
     failed: Mutex<Option<StoreError>>,
     /// Nanoseconds the writer spent writing (the rest it waited for blocks).
-    busy_ns: std::sync::atomic::AtomicU64,
+    busy_ns: AtomicU64,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -294,16 +294,18 @@ impl<'a> Emitter<'a> {
         let mut crcs = std::mem::take(&mut *lock(&shared.crcs));
         crcs.sort_by_key(|c| c.p0);
         let (mut table, mut checks) = (crc32fast::Hasher::new(), crc32fast::Hasher::new());
-        let mut next = 0;
+        // Blocks must chain exactly: a gap, an overlap or a block emitted twice breaks the chain.
+        let mut next = Some(0);
         for c in &crcs {
-            if c.p0 != next {
+            if next != Some(c.p0) {
+                next = None;
                 break;
             }
             table.combine(&c.table);
             checks.combine(&c.checks);
-            next = c.p1;
+            next = Some(c.p1);
         }
-        if next != pointlets || crcs.last().map(|c| c.p1) != Some(pointlets) {
+        if next != Some(pointlets) {
             return Err(StoreError::build(
                 out.path,
                 format!("internal error: the pointlets emitted do not cover 0..{pointlets} once"),
@@ -515,6 +517,57 @@ pub(crate) fn position_bounds(bytes: &[u8], q: &Quantization) -> Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Emits blocks `[p0, p1)` of a 40-point store of 8-point pointlets; the build's error, if any.
+    fn emit_blocks(blocks: &[(u64, u64)]) -> Option<String> {
+        let layout = PointLayout::default();
+        let rl = RecordLayout::new(&layout);
+        let (points, k) = (40u64, 8u64);
+        let plan = crate::format::plan(0, points, points / k, &layout).expect("plan");
+        let file = tempfile::tempfile().expect("temporary file");
+        file.set_len(plan.file_len).expect("sized");
+        let out = EmitPlan {
+            file: &file,
+            path: Path::new("t.pointlet"),
+            plan: &plan,
+            rl: &rl,
+            k,
+            points,
+            seed: 0,
+            quantization: Quantization {
+                scale: [1.0; 3],
+                offset: [0.0; 3],
+            },
+        };
+        let records = vec![0u8; points as usize * rl.len];
+        Emitter::run(&out, |em| {
+            for &(p0, p1) in blocks {
+                let source = Source::Sorted {
+                    records: &records[(p0 * k) as usize * rl.len..],
+                    first: p0 * k,
+                };
+                em.block(p0, p1, &source)?;
+            }
+            Ok(())
+        })
+        .err()
+        .map(|e| e.to_string())
+    }
+
+    #[test]
+    fn every_pointlet_must_be_emitted_exactly_once() {
+        assert_eq!(emit_blocks(&[(2, 5), (0, 2)]), None);
+        for blocks in [
+            &[(0, 2), (2, 5), (2, 5)][..],
+            &[(0, 2), (0, 2), (2, 5)],
+            &[(0, 3), (2, 5)],
+            &[(0, 2), (3, 5)],
+            &[(0, 2), (2, 4)],
+        ] {
+            let e = emit_blocks(blocks).expect("an error");
+            assert!(e.contains("do not cover 0..5 once"), "{blocks:?}: {e}");
+        }
+    }
 
     #[test]
     fn fixed_offsets_match_the_stream_order() {
