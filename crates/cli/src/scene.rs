@@ -4,7 +4,7 @@
 use crate::view_args::ColorArg;
 use anyhow::{bail, Context, Result};
 use pointlet_core::color::{
-    default_color, default_color_of_parts, point_color, ColorMode, ColorScale, DefaultColor,
+    default_color, default_color_of_parts, point_colors, ColorMode, ColorScale, DefaultColor,
 };
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::{Aabb, PointBatch, PointLayout};
@@ -192,9 +192,9 @@ impl Accumulator {
             }
         };
         self.set.positions.extend_from_slice(&batch.xyz);
-        self.set
-            .colors
-            .extend((0..batch.len()).map(|i| point_color(batch, i, &scale)));
+        let from = self.set.colors.len();
+        self.set.colors.resize(from + batch.len(), 0);
+        point_colors(batch, &scale, &mut self.set.colors[from..]);
         Ok(())
     }
 

@@ -14,7 +14,7 @@
 
 use crate::EngineError;
 use pointlet_core::color::{
-    default_color, point_color, sample_indices, ColorMode, ColorScale, DefaultColor,
+    default_color, point_colors, sample_indices, ColorMode, ColorScale, DefaultColor,
 };
 use pointlet_core::density::SurfaceDensity;
 use pointlet_core::extra::ExtraAttributes;
@@ -863,9 +863,7 @@ fn encode_into(
     positions: &mut [u32],
     colors: &mut [u32],
 ) {
-    for (i, c) in colors.iter_mut().enumerate() {
-        *c = point_color(batch, i, scale);
-    }
+    point_colors(batch, scale, colors);
     for (p, xyz) in positions.chunks_exact_mut(WORDS).zip(&batch.xyz) {
         p.copy_from_slice(&encode_point(*xyz, origin, NO_STEP, PointEncoding::Full16));
     }

@@ -3,7 +3,7 @@
 //! computed from the attribute the user colours by. Encoding here, in the loader threads, leaves
 //! the render thread nothing but copies.
 
-use pointlet_core::color::{point_color, sample_parts, ColorMode, ColorScale};
+use pointlet_core::color::{point_colors, sample_parts, ColorMode, ColorScale};
 use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::PointBatch;
 use pointlet_gpu::{compact_step, encode_point, PointEncoding};
@@ -125,7 +125,8 @@ impl StoreSource {
                 }
                 // Extra bytes are read point by point at the store's width.
                 batch.layout.extra_bytes = extra_bytes;
-                let colors = (0..n).map(|k| point_color(&batch, k, &scale)).collect();
+                let mut colors = vec![0; n];
+                point_colors(&batch, &scale, &mut colors);
                 (xyz, colors)
             })
             .collect())

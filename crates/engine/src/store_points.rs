@@ -57,7 +57,13 @@ impl StorePoints {
     }
 
     /// Part `i`'s points with the streams `kinds` (positions always).
-    fn decode(&self, i: usize, out: &mut PointBatch, kinds: &[StreamKind]) -> Result<(), IoError> {
+    fn decode(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        raw: &mut Vec<u8>,
+        kinds: &[StreamKind],
+    ) -> Result<(), IoError> {
         if i >= self.part_sizes.len() {
             return Err(IoError::invalid(
                 &self.path,
@@ -69,8 +75,9 @@ impl StorePoints {
         }
         let start = i * self.per_part;
         let end = (start + self.per_part).min(self.store.pointlets().len());
-        *out = self.read(start..end, kinds)?;
-        Ok(())
+        self.store
+            .read_pointlet_streams_into(start..end, kinds, out, raw)
+            .map_err(|e| IoError::Named(Box::new(e)))
     }
 
     /// Pointlets `range`, checksummed: a damaged pointlet is an error naming it, never wrong
@@ -125,9 +132,9 @@ impl PartedSource for StorePoints {
         &self,
         i: usize,
         out: &mut PointBatch,
-        _scratch: &mut Vec<u8>,
+        scratch: &mut Vec<u8>,
     ) -> Result<(), PartError> {
-        self.decode(i, out, &StreamKind::ALL)
+        self.decode(i, out, scratch, &StreamKind::ALL)
             .map_err(|e| Box::new(e) as PartError)
     }
 
@@ -136,7 +143,7 @@ impl PartedSource for StorePoints {
         &self,
         i: usize,
         out: &mut PointBatch,
-        _scratch: &mut Vec<u8>,
+        scratch: &mut Vec<u8>,
         mode: ColorMode,
     ) -> Result<(), PartError> {
         let kinds: Vec<StreamKind> = [
@@ -146,7 +153,7 @@ impl PartedSource for StorePoints {
         .into_iter()
         .flatten()
         .collect();
-        self.decode(i, out, &kinds)
+        self.decode(i, out, scratch, &kinds)
             .map_err(|e| Box::new(e) as PartError)
     }
 }

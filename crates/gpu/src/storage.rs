@@ -95,6 +95,7 @@ pub fn needs_fine(origin: [f64; 3], extent: [f64; 3], eye: [f64; 3], focal_px: f
 /// One point's position words as the streams store them: Full16 `[x, y, z]` f32 bits relative
 /// to `origin`; Compact8 `[coarse, fine, 0]`. Loaders encode with this, so the render thread
 /// only copies words.
+#[inline]
 pub fn encode_point(
     p: [f64; 3],
     origin: [f64; 3],

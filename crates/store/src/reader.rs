@@ -359,6 +359,21 @@ impl Store {
         range: Range<usize>,
         kinds: &[StreamKind],
     ) -> Result<PointBatch, StoreError> {
+        let mut b = PointBatch::default();
+        self.read_pointlet_streams_into(range, kinds, &mut b, &mut Vec::new())?;
+        Ok(b)
+    }
+
+    /// [`read_pointlet_streams`](Self::read_pointlet_streams) into `b`, whose columns are
+    /// cleared and refilled; `raw` holds a stream's bytes. Loaders reuse both: fresh buffers
+    /// for every part cost page faults that weigh more than the decoding.
+    pub fn read_pointlet_streams_into(
+        &self,
+        range: Range<usize>,
+        kinds: &[StreamKind],
+        b: &mut PointBatch,
+        raw: &mut Vec<u8>,
+    ) -> Result<(), StoreError> {
         if range.is_empty() {
             return Err(StoreError::request(
                 &self.path,
@@ -367,20 +382,22 @@ impl Store {
         }
         let (first, last) = (*self.entry(range.start)?, *self.entry(range.end - 1)?);
         let n = (last.first + last.count as u64 - first.first) as usize;
-        let layout = self.header.layout;
-        let mut b = PointBatch::with_capacity(layout, n);
-        let mut raw = Vec::new();
+        b.clear(self.header.layout);
         let streams = self.header.streams.len();
         for (s, info) in self.header.streams.iter().enumerate() {
             if info.kind != StreamKind::Position && !kinds.contains(&info.kind) {
                 continue;
             }
             let bpp = info.bytes_per_point as usize;
-            raw.resize(n * bpp, 0);
+            // Grown, never shrunk: zero-filling it again for every stream costs a pass.
+            if raw.len() < n * bpp {
+                raw.resize(n * bpp, 0);
+            }
+            let raw = &mut raw[..n * bpp];
             read_at(
                 &*self.source,
                 &self.path,
-                &mut raw,
+                raw,
                 info.offset + first.first * bpp as u64,
                 "reading a stream",
             )?;
@@ -401,32 +418,31 @@ impl Store {
                 at += bytes;
             }
             let q = self.header.quantization;
+            let raw = &raw[..];
             match info.kind {
-                StreamKind::Position => {
-                    b.xyz = raw
-                        .chunks_exact(12)
-                        .map(|c| q.dequantize(decode_position(array(c))))
-                        .collect()
-                }
-                StreamKind::Intensity => b.intensity = decode_all(&raw, u16::from_le_bytes),
-                StreamKind::Returns => b.returns = raw.clone(),
-                StreamKind::Flags => b.flags = raw.clone(),
-                StreamKind::Classification => b.classification = raw.clone(),
-                StreamKind::ScanAngle => b.scan_angle = decode_all(&raw, f32::from_le_bytes),
-                StreamKind::UserData => b.user_data = raw.clone(),
+                StreamKind::Position => b.xyz.extend(
+                    raw.chunks_exact(12)
+                        .map(|c| q.dequantize(decode_position(array(c)))),
+                ),
+                StreamKind::Intensity => decode_into(raw, &mut b.intensity, u16::from_le_bytes),
+                StreamKind::Returns => b.returns.extend_from_slice(raw),
+                StreamKind::Flags => b.flags.extend_from_slice(raw),
+                StreamKind::Classification => b.classification.extend_from_slice(raw),
+                StreamKind::ScanAngle => decode_into(raw, &mut b.scan_angle, f32::from_le_bytes),
+                StreamKind::UserData => b.user_data.extend_from_slice(raw),
                 StreamKind::PointSourceId => {
-                    b.point_source_id = decode_all(&raw, u16::from_le_bytes)
+                    decode_into(raw, &mut b.point_source_id, u16::from_le_bytes)
                 }
-                StreamKind::GpsTime => b.gps_time = decode_all(&raw, f64::from_le_bytes),
-                StreamKind::Rgb => b.rgb = decode_all(&raw, decode_rgb),
-                StreamKind::Nir => b.nir = decode_all(&raw, u16::from_le_bytes),
+                StreamKind::GpsTime => decode_into(raw, &mut b.gps_time, f64::from_le_bytes),
+                StreamKind::Rgb => decode_into(raw, &mut b.rgb, decode_rgb),
+                StreamKind::Nir => decode_into(raw, &mut b.nir, u16::from_le_bytes),
                 StreamKind::Waveform => {
-                    b.waveform = decode_all::<[u8; WAVEFORM_BYTES], WAVEFORM_BYTES>(&raw, |w| w)
+                    decode_into::<[u8; WAVEFORM_BYTES], WAVEFORM_BYTES>(raw, &mut b.waveform, |w| w)
                 }
-                StreamKind::ExtraBytes => b.extra_bytes = raw.clone(),
+                StreamKind::ExtraBytes => b.extra_bytes.extend_from_slice(raw),
             }
         }
-        Ok(b)
+        Ok(())
     }
 
     /// Reads the whole file: every stream checksum of every pointlet, every pointlet's AABB
@@ -581,8 +597,8 @@ fn decode_rgb(b: [u8; 6]) -> [u16; 3] {
     ]
 }
 
-fn decode_all<T, const B: usize>(raw: &[u8], f: impl Fn([u8; B]) -> T) -> Vec<T> {
-    raw.chunks_exact(B).map(|c| f(array(c))).collect()
+fn decode_into<T, const B: usize>(raw: &[u8], out: &mut Vec<T>, f: impl Fn([u8; B]) -> T) {
+    out.extend(raw.chunks_exact(B).map(|c| f(array(c))));
 }
 
 /// Decodes and checks the pointlet table against the header.

@@ -1,7 +1,7 @@
 //! Colours of fetched points, computed as the native loaders compute them: the streams a
-//! colouring reads, decoded into a batch's columns, through `core::color::point_color`.
+//! colouring reads, decoded into a batch's columns, through `core::color::point_colors`.
 
-use pointlet_core::color::{point_color, ColorMode, ColorScale};
+use pointlet_core::color::{point_colors, ColorMode, ColorScale};
 use pointlet_core::PointBatch;
 use pointlet_store::{decode_positions, StoreHeader, StreamKind};
 
@@ -79,7 +79,8 @@ pub fn decode(
         batch.xyz = xyz.iter().map(|p| q.dequantize(*p)).collect();
     }
     batch.layout.extra_bytes = header.layout.extra_bytes;
-    let colors = (0..n).map(|k| point_color(&batch, k, scale)).collect();
+    let mut colors = vec![0; n];
+    point_colors(&batch, scale, &mut colors);
     (xyz, colors)
 }
 
