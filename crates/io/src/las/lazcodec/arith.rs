@@ -8,8 +8,10 @@
 //! growing number of decoded symbols (the update cycle), exactly as LASzip does. The decoded
 //! symbol is the last whose cumulative count is at most `value / (length >> 15)`. Models of
 //! more than 16 symbols find it through our own table (`T` entries, finer than LASzip's),
-//! which gives the symbol at the start of the quotient's cell, then step over the rare
-//! boundaries inside the cell; smaller models search by bisection with multiplications only.
+//! which gives the symbol at the start of the quotient's cell together with its interval, so
+//! that the usual decode is one division, one load and two multiplications; only when a
+//! boundary inside the cell lies at or below the quotient does it step on through the
+//! distribution. Smaller models search by bisection with multiplications only.
 //! Any search for that symbol gives the one LASzip's encoder wrote.
 //!
 //! Reading past the end of the bytes yields zeros and moves the position on regardless, so
@@ -60,12 +62,12 @@ impl<'a> Arith<'a> {
     #[inline(always)]
     fn renorm(&mut self) {
         // A length of zero cannot arise (every decision leaves at least one unit); were it to,
-        // 1 keeps the shifts in range.
-        let length = self.length.max(1);
-        let shift = (length.leading_zeros() / 8) * 8;
-        let next = self.peek4();
-        self.value = ((u64::from(self.value) << shift) | (u64::from(next) >> (32 - shift))) as u32;
-        self.length = length << shift;
+        // the 64-bit shifts stay in range and the divisions check for zero.
+        let shift = self.length.leading_zeros() & !7;
+        // Value and next bytes joined before the shift amount is known: one shift after it.
+        let window = (u64::from(self.value) << 32) | u64::from(self.peek4());
+        self.value = ((window << shift) >> 32) as u32;
+        self.length = (u64::from(self.length) << shift) as u32;
         self.pos += (shift / 8) as usize;
     }
 
@@ -113,33 +115,41 @@ impl<'a> Arith<'a> {
     pub fn symbol<const N: usize, const T: usize>(&mut self, m: &mut Model<N, T>) -> u32 {
         let full = self.length;
         let unit = self.length >> SYMBOL_SHIFT;
-        let (sym, x, y);
+        // The symbol, where its interval starts and how long it is.
+        let (sym, x, len);
         if T > 0 {
             // The symbol is the last whose cumulative count is at most `dv`: the table gives
-            // the symbol at the start of dv's cell, rarely a boundary or two below dv.
-            let dv = self.value / unit;
-            let cell = ((dv >> Model::<N, T>::SHIFT) as usize).min(T - 1);
-            let mut s = usize::from(m.table[cell]);
-            let mut next = if s + 1 < N {
-                u32::from(m.dist[s + 1])
-            } else {
-                u32::MAX
+            // the symbol at the start of dv's cell with its interval, and rarely a boundary
+            // or two inside the cell lie at or below dv.
+            let dv = self.value.checked_div(unit).unwrap_or(0);
+            let cell = (dv >> Model::<N, T>::SHIFT) as usize;
+            // A branch, not a clamp: only damaged data goes beyond the table.
+            let entry = match m.table.get(cell) {
+                Some(&e) => e,
+                None => m.top_entry(),
             };
-            while next <= dv {
-                s += 1;
-                next = if s + 1 < N {
-                    u32::from(m.dist[s + 1])
+            let (first, start, width, rest) = unpack(entry);
+            if start + width > dv {
+                x = start.wrapping_mul(unit);
+                // The last symbol also takes the rest of the length that `unit` rounds off.
+                len = width.wrapping_mul(unit).wrapping_add(full & rest);
+                sym = first;
+            } else {
+                let mut s = first;
+                let mut next = m.end(s);
+                while next <= dv {
+                    s += 1;
+                    next = m.end(s);
+                }
+                x = u32::from(m.dist[s]).wrapping_mul(unit);
+                len = if s + 1 < N {
+                    next.wrapping_mul(unit)
                 } else {
-                    u32::MAX
-                };
+                    full
+                }
+                .wrapping_sub(x);
+                sym = s;
             }
-            x = u32::from(m.dist[s]).wrapping_mul(unit);
-            y = if s + 1 < N {
-                next.wrapping_mul(unit)
-            } else {
-                full
-            };
-            sym = s;
         } else {
             let (mut s, mut n, mut lo, mut hi) = (0usize, N, 0u32, full);
             let mut k = N >> 1;
@@ -157,10 +167,10 @@ impl<'a> Arith<'a> {
                     break;
                 }
             }
-            (sym, x, y) = (s, lo, hi);
+            (sym, x, len) = (s, lo, hi.wrapping_sub(lo));
         }
         self.value = self.value.wrapping_sub(x);
-        self.length = y.wrapping_sub(x);
+        self.length = len;
         self.renorm();
         m.count[sym] += 1;
         m.until -= 1;
@@ -186,7 +196,7 @@ impl<'a> Arith<'a> {
     #[inline(always)]
     fn raw(&mut self, bits: u32) -> u32 {
         self.length >>= bits;
-        let sym = self.value / self.length;
+        let sym = self.value.checked_div(self.length).unwrap_or(0);
         self.value = self.value.wrapping_sub(self.length.wrapping_mul(sym));
         self.renorm();
         sym
@@ -267,8 +277,9 @@ pub(super) struct Model<const N: usize, const T: usize> {
     /// Symbol counts: at most 2^15 plus one update cycle, as the counts are halved when
     /// their sum passes 2^15.
     count: [u16; N],
-    /// The symbol at the start of each cell of 2^15 >> table_bits(N) distribution values.
-    table: [u16; T],
+    /// The symbol at the start of each cell of 2^15 >> table_bits(N) distribution values,
+    /// with its interval: see [`pack`].
+    table: [u64; T],
     total: u32,
     cycle: u32,
     until: u32,
@@ -296,6 +307,23 @@ impl<const N: usize, const T: usize> Model<N, T> {
         m
     }
 
+    /// Where the interval of symbol `s` ends: the next one's start, beyond every quotient for
+    /// the last.
+    #[inline(always)]
+    fn end(&self, s: usize) -> u32 {
+        match self.dist.get(s + 1) {
+            Some(&d) => u32::from(d),
+            None => u32::MAX,
+        }
+    }
+
+    /// The table entry of the quotients beyond the table, which only damaged data gives.
+    #[cold]
+    #[inline(never)]
+    fn top_entry(&self) -> u64 {
+        self.table.last().copied().unwrap_or(0)
+    }
+
     #[inline(never)]
     const fn update(&mut self) {
         self.total += self.cycle;
@@ -321,14 +349,19 @@ impl<const N: usize, const T: usize> Model<N, T> {
             while k < N {
                 let first =
                     ((self.dist[k] as u32 + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
+                let (start, end) = (self.dist[k - 1], self.dist[k]);
+                let entry = pack(k - 1, start, end.wrapping_sub(start) as u32, 0);
                 while cell < first {
-                    self.table[cell] = (k - 1) as u16;
+                    self.table[cell] = entry;
                     cell += 1;
                 }
                 k += 1;
             }
+            let start = self.dist[N - 1];
+            let width = SYMBOL_MAX_TOTAL - start as u32;
+            let entry = pack(N - 1, start, width, SYMBOL_MAX_TOTAL - 1);
             while cell < T {
-                self.table[cell] = (N - 1) as u16;
+                self.table[cell] = entry;
                 cell += 1;
             }
         }
@@ -339,6 +372,24 @@ impl<const N: usize, const T: usize> Model<N, T> {
         }
         self.until = self.cycle;
     }
+}
+
+/// A table entry: the width of a symbol's interval (low 16 bits, first out of the load for the
+/// length), where it starts (next 16), the symbol (next 16) and, for the last symbol, the mask
+/// of the length's bits below the unit (top 16): one load gives all a decode needs.
+const fn pack(sym: usize, start: u16, width: u32, rest: u32) -> u64 {
+    width as u64 | (start as u64) << 16 | (sym as u64) << 32 | (rest as u64) << 48
+}
+
+/// The symbol, start, width and rest mask of a table entry.
+#[inline(always)]
+fn unpack(entry: u64) -> (usize, u32, u32, u32) {
+    (
+        ((entry >> 32) & 0xFFFF) as usize,
+        ((entry >> 16) & 0xFFFF) as u32,
+        (entry & 0xFFFF) as u32,
+        (entry >> 48) as u32,
+    )
 }
 
 /// The models of 256 symbols that most contexts use.
