@@ -123,7 +123,7 @@ pub fn run(args: Args) -> Result<()> {
     let secs = started.elapsed().as_secs_f64();
     eprintln!(
         "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({}; reading {:.2} s, sorting \
-         {:.2} s, writing {:.2} s of which the writer was busy {:.2} s)",
+         {:.2} s, writing {:.2} s; the writers were busy {:.2} s in all)",
         args.output.display(),
         summary.points,
         summary.pointlets,

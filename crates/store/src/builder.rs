@@ -100,7 +100,8 @@ pub struct BuildTimings {
     pub sorting: std::time::Duration,
     /// Merging (out of core), shuffling and writing the store.
     pub writing: std::time::Duration,
-    /// Of `writing`, the time the writer thread spent in writes (it waits for blocks otherwise).
+    /// The time the writer threads spent in writes during `writing`, added over the threads
+    /// (they wait for blocks otherwise).
     pub writer_busy: std::time::Duration,
 }
 
