@@ -14,11 +14,11 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// Threads writing blocks into the store file at once: one file's buffered writes take 3.1
 /// GB/s from one thread and 5.3 from two on the GPU machine, and no more from four.
 const WRITERS: usize = 2;
-use std::time::{Duration, Instant};
 
 /// Where each stream's value sits inside a record.
 #[derive(Clone, Debug)]
