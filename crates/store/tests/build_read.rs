@@ -462,12 +462,13 @@ fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
             .num_threads(threads)
             .build()
             .unwrap();
-        for budget in [1u64 << 30, 2 << 20, 0] {
+        // 16 MiB holds the run in memory but gives small blocks, with buckets across them.
+        for budget in [1u64 << 30, 16 << 20, 2 << 20, 0] {
             let out = dir.path().join(format!("t{threads}-{budget}.pointlet"));
             let runs = pool.install(|| build_parts(&out, config(budget, 300, 5), &parts, n));
             assert_eq!(
                 runs > 0,
-                budget < 1 << 30,
+                budget <= 2 << 20,
                 "{threads} threads, budget {budget}"
             );
             assert!(
