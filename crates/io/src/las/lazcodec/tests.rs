@@ -502,9 +502,14 @@ fn damaged(vlr: &LazVlr, ours: &mut ChunkDecoder, data: &[u8], points: usize) ->
     });
     if let Some(Ok(())) = laz {
         // Ours gives up on a point that keeps switching GPS sequences (which valid data
-        // never does); the crate follows the switches.
+        // never does); the crate follows the switches. Without overflow checks (release
+        // builds: they go with debug assertions here) the crate wraps where it would panic,
+        // and its bytes for such damage are no reference: only checked builds compare them.
         match &result {
-            Ok(()) => assert!(got == want, "ours decoded damaged data differently"),
+            Ok(()) => assert!(
+                got == want || !cfg!(debug_assertions),
+                "ours decoded damaged data differently"
+            ),
             Err(e) => assert!(
                 e.contains("GPS"),
                 "ours failed where the laz crate did not: {e}"
