@@ -58,6 +58,11 @@ struct Summary<'a> {
     converge_frames: u64,
     /// Mean of S / N over the path.
     share_drawn: f64,
+    /// Bytes of the upload measurement, threads writing into mapped upload memory (GB/s) and
+    /// the GPU copying it into device memory (GB/s): the speed loading can reach at most.
+    upload_bytes: u64,
+    upload_write_gbs: f64,
+    upload_copy_gbs: f64,
     /// Frame statistics of the frames drawn while loading.
     loading_stats: Option<FrameStats>,
     stats: &'a FrameStats,
@@ -236,6 +241,22 @@ pub fn run(args: &Args) -> Result<()> {
          {:.2} % of the points drawn per frame on average",
         share_drawn * 100.0
     );
+    // The path to the GPU alone, after the flight so that it does not disturb it: as many
+    // bytes as the buffer's points take (16 each), 16 MiB to 2 GiB.
+    let upload = pointlet_gpu::upload_bandwidth(
+        &ctx,
+        (16 * scene.slots()).clamp(16 << 20, 2 << 30),
+        64 << 20,
+        3,
+    )
+    .context("measuring the upload path")?;
+    println!(
+        "upload path ({} MB): threads write mapped upload memory at {:.1} GB/s, the GPU copies it at {:.1} GB/s; loading moved {:.1} GB/s of 16-byte points",
+        upload.bytes / 1_000_000,
+        upload.write_gbs,
+        upload.copy_gbs,
+        progress.points_per_s() * 16.0 / 1e9
+    );
     if let Some(p) = &args.plot {
         write_plot(p, &rows)?;
     }
@@ -259,6 +280,9 @@ pub fn run(args: &Args) -> Result<()> {
             converge_s,
             converge_frames,
             share_drawn,
+            upload_bytes: upload.bytes,
+            upload_write_gbs: upload.write_gbs,
+            upload_copy_gbs: upload.copy_gbs,
             loading_stats,
             stats: &stats,
             stages: &stage_table,

@@ -4,7 +4,7 @@
 //! hands parts to every core instead of reading the file front to back on one thread.
 
 use crate::color::ColorMode;
-use crate::PointBatch;
+use crate::{PointBatch, Quantization};
 
 /// Why a part could not be decoded: the reader's own error (it names the file and offset).
 pub type PartError = Box<dyn std::error::Error + Send + Sync>;
@@ -36,5 +36,35 @@ pub trait PartedSource: Sync {
     ) -> Result<(), PartError> {
         let _ = mode;
         self.decode_part(i, out, scratch)
+    }
+
+    /// The quantization of the positions [`read_quantized_positions`] gives: `Some` for
+    /// sources that keep positions as stored integers in a column of their own (stores), so
+    /// that a loader can hand them to the GPU as they are.
+    ///
+    /// [`read_quantized_positions`]: Self::read_quantized_positions
+    fn quantized_positions(&self) -> Option<Quantization> {
+        None
+    }
+
+    /// Part `i`'s positions as stored: x, y, z as little-endian i32 of
+    /// [`quantized_positions`](Self::quantized_positions), 12 bytes a point, in `raw[..n]`
+    /// (`raw` grown as needed; n returned), checked as the source checks its data.
+    fn read_quantized_positions(&self, i: usize, raw: &mut Vec<u8>) -> Result<usize, PartError> {
+        let _ = (i, raw);
+        Err("this source keeps no quantized positions".into())
+    }
+
+    /// [`decode_part_for`](Self::decode_part_for) without the positions, for a loader that
+    /// takes them from [`read_quantized_positions`](Self::read_quantized_positions): only
+    /// what colouring by `mode` reads is complete (`mode` must not read positions).
+    fn decode_attributes_for(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        scratch: &mut Vec<u8>,
+        mode: ColorMode,
+    ) -> Result<(), PartError> {
+        self.decode_part_for(i, out, scratch, mode)
     }
 }

@@ -21,16 +21,16 @@ use pointlet_core::extra::ExtraAttributes;
 use pointlet_core::progressive::Reservoir;
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_gpu::shuffle::{
-    EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
+    Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
 };
 use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::{PointReader, ReadOptions};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -155,6 +155,8 @@ impl LoadProgress {
 pub struct Uploaded {
     pub batches: usize,
     pub points: u64,
+    /// Of `points`, those whose positions went to the GPU as the store keeps them.
+    pub stored: u64,
     /// The reader's error that ended loading, in the one call that received it.
     pub failure: Option<EngineError>,
 }
@@ -187,7 +189,6 @@ enum Stop {
 }
 
 /// What the load thread and the render thread both see.
-#[derive(Default)]
 struct Shared {
     loaded: AtomicU64,
     color: OnceLock<LoadColor>,
@@ -195,6 +196,36 @@ struct Shared {
     spacing: OnceLock<f64>,
     /// The GPU, once the render thread has one: batches then go to mapped upload memory.
     device: OnceLock<wgpu::Device>,
+    /// Staged batches the GPU is done with, mapped again, for the next batches.
+    staged_pool: Mutex<Vec<StagedBatch>>,
+    /// Whether batches are still recycled into the pool (not once loading ended).
+    recycling: AtomicBool,
+}
+
+impl Shared {
+    /// A staged batch with room for `points`: one from the pool, else a new one.
+    fn take_staged(&self, device: &wgpu::Device, points: u64) -> Option<StagedBatch> {
+        let reused = {
+            let mut pool = self.staged_pool.lock().unwrap_or_else(|e| e.into_inner());
+            let fits = pool.iter().position(|b| b.capacity() >= points);
+            fits.map(|i| pool.swap_remove(i))
+        };
+        reused.or_else(|| StagedBatch::new(device, PointEncoding::Full16, points).ok())
+    }
+
+    /// Returns a staged batch whose copy was submitted to the pool once it is mapped again.
+    fn recycle(self: &Arc<Self>, staged: StagedBatch) {
+        if !self.recycling.load(Ordering::Relaxed) {
+            return;
+        }
+        let shared = Arc::clone(self);
+        staged.recycle(move |b| {
+            if shared.recycling.load(Ordering::Relaxed) {
+                let mut pool = shared.staged_pool.lock().unwrap_or_else(|e| e.into_inner());
+                pool.push(b);
+            }
+        });
+    }
 }
 
 /// What the load thread needs besides the reader.
@@ -292,7 +323,14 @@ impl ProgressiveLoad {
                 .map_err(|e| EngineError::Read(format!("{}: {e}", input.display())))?
                 .len();
         }
-        let shared = Arc::new(Shared::default());
+        let shared = Arc::new(Shared {
+            loaded: AtomicU64::new(0),
+            color: OnceLock::new(),
+            spacing: OnceLock::new(),
+            device: OnceLock::new(),
+            staged_pool: Mutex::new(Vec::new()),
+            recycling: AtomicBool::new(true),
+        });
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
         let job_extras = extras.clone();
         let job = Job {
@@ -439,7 +477,7 @@ impl ProgressiveLoad {
                 None => queue.try_recv(),
             };
             match next {
-                Ok(Message::Batch(b)) => {
+                Ok(Message::Batch(mut b)) => {
                     let targets = match &b.slots {
                         Some(slots) => Targets::Slots(slots),
                         // The load thread keeps permuted batches within the slots ≤ u32::MAX.
@@ -452,8 +490,14 @@ impl ProgressiveLoad {
                             })?,
                         },
                     };
-                    if let (Some(staged), Targets::Permuted { first }) = (&b.staged, targets) {
-                        pass.scatter_staged(ctx, dst, first, staged)?;
+                    if let (Some(_), Targets::Permuted { first }) = (&b.staged, targets) {
+                        if let Some(staged) = b.staged.take() {
+                            pass.scatter_staged(ctx, dst, first, &staged)?;
+                            if staged.holds_stored_positions() {
+                                up.stored += b.read;
+                            }
+                            self.shared.recycle(staged);
+                        }
                     } else if self.colors_only {
                         pass.scatter_colors(ctx, dst, targets, &b.colors)?;
                     } else {
@@ -508,6 +552,13 @@ impl ProgressiveLoad {
     }
 
     fn end(&mut self, state: LoadState) {
+        // The pool's mapped memory is not needed any more.
+        self.shared.recycling.store(false, Ordering::Relaxed);
+        self.shared
+            .staged_pool
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
         self.state = state;
         self.ended = Some(Instant::now());
         self.stop_thread();
@@ -658,7 +709,7 @@ fn decode_batch(
         .device
         .get()
         .filter(|_| !job.colors_only && first + points <= job.reservoir.capacity())
-        .and_then(|device| StagedBatch::new(device, PointEncoding::Full16, points).ok());
+        .and_then(|device| job.shared.take_staged(device, points));
     let in_memory = if staged.is_some() { 0 } else { points as usize };
     let mut out = EncodedPoints {
         first,
@@ -698,11 +749,23 @@ fn decode_batch(
             }
         }
     }
+    // A store's positions go to the GPU as stored, dequantized there (unless the colouring
+    // needs them here: elevation).
+    let stored = parts
+        .quantized_positions()
+        .filter(|_| staged.is_some() && color.scale.mode != ColorMode::Elevation)
+        .map(|q| Dequantize::new(q.scale, q.offset, job.origin));
     let results: Vec<Result<(), String>> = jobs
         .into_par_iter()
         .map_init(
             || (PointBatch::default(), Vec::new(), Vec::new(), Vec::new()),
             |(batch, scratch, p_words, c_words), (i, share)| {
+                let share = match (stored, share) {
+                    (Some(_), Share::Mapped(p, c)) => {
+                        return stored_part(parts, job, color, i, (batch, scratch, c_words), p, c)
+                    }
+                    (_, share) => share,
+                };
                 parts
                     .decode_part_for(i, batch, scratch, color.scale.mode)
                     .map_err(|e| e.to_string())?;
@@ -737,6 +800,11 @@ fn decode_batch(
     match staged {
         Some(mut staged) => {
             staged.finish(kept);
+            if let Some(d) = stored {
+                staged
+                    .set_dequantize(d)
+                    .map_err(|e| Stop::Failed(format!("{}: {e}", job.path.display())))?;
+            }
             out.staged = Some(staged);
         }
         None => {
@@ -746,6 +814,36 @@ fn decode_batch(
     }
     out.read = kept;
     Ok((out, results.into_iter().nth(good).and_then(Result::err)))
+}
+
+/// A store's part for a [`Share::Mapped`]: its positions as stored into the position region
+/// (the GPU dequantizes them), its colours computed from the streams they need.
+fn stored_part(
+    parts: &dyn PartedSource,
+    job: &Job,
+    color: &LoadColor,
+    i: usize,
+    (batch, scratch, c_words): (&mut PointBatch, &mut Vec<u8>, &mut Vec<u32>),
+    mut p: StagedRegion<'_>,
+    mut c: StagedRegion<'_>,
+) -> Result<(), String> {
+    let size = parts.part_sizes()[i];
+    let bytes = parts
+        .read_quantized_positions(i, scratch)
+        .map_err(|e| e.to_string())?;
+    if bytes as u64 != size * 12 {
+        return Err(format!(
+            "{}: part {i} holds {bytes} bytes of positions, its size is {size} points",
+            job.path.display(),
+        ));
+    }
+    p.write(&scratch[..bytes]).map_err(|e| e.to_string())?;
+    parts
+        .decode_attributes_for(i, batch, scratch, color.scale.mode)
+        .map_err(|e| e.to_string())?;
+    c_words.resize(size as usize, 0u32);
+    point_colors(batch, &color.scale, c_words);
+    c.write(c_words).map_err(|e| e.to_string())
 }
 
 /// One part's share of a batch's encoded points.

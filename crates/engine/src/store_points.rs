@@ -3,7 +3,7 @@
 //! is drawn, no LoD: the loader's throughput with nothing to decode but fixed-size columns.
 
 use pointlet_core::color::ColorMode;
-use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
+use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use pointlet_io::{IoError, PointReader, ReadOptions};
 use pointlet_store::{Store, StreamKind};
 use std::ops::Range;
@@ -64,6 +64,14 @@ impl StorePoints {
         raw: &mut Vec<u8>,
         kinds: &[StreamKind],
     ) -> Result<(), IoError> {
+        let range = self.pointlets_of(i)?;
+        self.store
+            .read_pointlet_streams_into(range, kinds, out, raw)
+            .map_err(|e| IoError::Named(Box::new(e)))
+    }
+
+    /// The pointlets of part `i`.
+    fn pointlets_of(&self, i: usize) -> Result<Range<usize>, IoError> {
         if i >= self.part_sizes.len() {
             return Err(IoError::invalid(
                 &self.path,
@@ -74,10 +82,7 @@ impl StorePoints {
             ));
         }
         let start = i * self.per_part;
-        let end = (start + self.per_part).min(self.store.pointlets().len());
-        self.store
-            .read_pointlet_streams_into(start..end, kinds, out, raw)
-            .map_err(|e| IoError::Named(Box::new(e)))
+        Ok(start..(start + self.per_part).min(self.store.pointlets().len()))
     }
 
     /// Pointlets `range`, checksummed: a damaged pointlet is an error naming it, never wrong
@@ -146,16 +151,45 @@ impl PartedSource for StorePoints {
         scratch: &mut Vec<u8>,
         mode: ColorMode,
     ) -> Result<(), PartError> {
-        let kinds: Vec<StreamKind> = [
-            Some(StreamKind::Classification),
-            StreamKind::for_color(mode),
-        ]
-        .into_iter()
-        .flatten()
-        .collect();
-        self.decode(i, out, scratch, &kinds)
+        self.decode(i, out, scratch, &color_streams(mode))
             .map_err(|e| Box::new(e) as PartError)
     }
+
+    fn quantized_positions(&self) -> Option<Quantization> {
+        Some(self.store.header().quantization)
+    }
+
+    fn read_quantized_positions(&self, i: usize, raw: &mut Vec<u8>) -> Result<usize, PartError> {
+        let range = self.pointlets_of(i).map_err(|e| Box::new(e) as PartError)?;
+        self.store
+            .read_stream_into(range, StreamKind::Position, raw)
+            .map_err(|e| Box::new(IoError::Named(Box::new(e))) as PartError)
+    }
+
+    /// Reads classes (the colours' alpha) and the one stream `mode` colours by.
+    fn decode_attributes_for(
+        &self,
+        i: usize,
+        out: &mut PointBatch,
+        scratch: &mut Vec<u8>,
+        mode: ColorMode,
+    ) -> Result<(), PartError> {
+        let range = self.pointlets_of(i).map_err(|e| Box::new(e) as PartError)?;
+        self.store
+            .read_pointlet_attributes_into(range, &color_streams(mode), out, scratch)
+            .map_err(|e| Box::new(IoError::Named(Box::new(e))) as PartError)
+    }
+}
+
+/// The streams colouring by `mode` reads: classes (the colours' alpha) and its own.
+fn color_streams(mode: ColorMode) -> Vec<StreamKind> {
+    [
+        Some(StreamKind::Classification),
+        StreamKind::for_color(mode),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
 }
 
 /// Opens a point file, or a store (`.pointlet`) or a 3D Tiles tileset (`.json`) as one.

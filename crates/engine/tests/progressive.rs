@@ -1,6 +1,7 @@
 //! Progressive loading of point files: every point lands in the shuffled buffer where the CPU
 //! permutation puts it, progress reaches the header's count, a file cut while loading keeps
-//! what was read before the cut and reports the error once, and the queue bound holds.
+//! what was read before the cut and reports the error once, and the queue bound holds. A
+//! store's positions go to the GPU as stored and land within an ulp of the CPU's encoding.
 
 mod common;
 use common::context;
@@ -191,6 +192,79 @@ fn a_generated_las_lands_where_the_cpu_permutation_puts_it() {
     assert_eq!(load.total(), 300_000);
     let color = load.color().unwrap();
     assert_eq!(color.default.map(|d| d.mode), Some(ColorMode::Rgb));
+}
+
+/// Distance between two floats in f32 steps at the larger of their magnitudes and `at`.
+fn ulps(a: f32, b: f32, at: f32) -> f64 {
+    let x = a.abs().max(b.abs()).max(at);
+    let step = f32::from_bits(x.to_bits() + 1) - x;
+    (a as f64 - b as f64).abs() / step as f64
+}
+
+#[test]
+fn a_store_lands_where_the_cpu_permutation_puts_it_dequantized_on_the_gpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("g.pointlet");
+    common::build_store(&path, 120_000, 5, 300);
+    let mut gpu = Gpu::new();
+    // Batches of two parts (of ~1 875 points), one waiting and one decoding at a time: the
+    // few decoded before the first upload tells the loader the GPU go encoded on the CPU,
+    // the others as stored.
+    let config = LoadConfig {
+        batch_points: 3_000,
+        parallel_parts: 1,
+        queue_batches: 1,
+        batches_decoding: 1,
+        ..Default::default()
+    };
+    let mut load = ProgressiveLoad::start(&path, config).unwrap();
+    let dst = gpu.buffer(&load);
+    let give_up = Instant::now() + Duration::from_secs(60);
+    let (mut stored, mut points) = (0, 0);
+    while !load.progress().is_finished() {
+        let up = gpu.upload(&mut load, &dst);
+        assert!(up.failure.is_none(), "{:?}", up.failure);
+        (stored, points) = (stored + up.stored, points + up.points);
+        if up.batches == 0 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert!(Instant::now() < give_up, "loading never finished");
+    }
+    assert_complete(&load.progress());
+    assert_eq!(points, 120_000);
+    assert!(
+        stored >= 60_000,
+        "only {stored} of the points went to the GPU as stored"
+    );
+    let got = dst.read(&gpu.ctx).unwrap();
+    let scale = load.color().unwrap().scale;
+    let step = pointlet_store::Store::open(&path)
+        .unwrap()
+        .header()
+        .quantization
+        .scale;
+    let perm = ShufflePermutation::new(load.total()).unwrap();
+    let mut r = pointlet_engine::open_points(&path, &Default::default()).unwrap();
+    let mut i = 0u64;
+    while let Some(b) = r.read_batch(7_000).unwrap() {
+        for k in 0..b.len() {
+            let t = perm.target(i) as usize;
+            let want = encode_point(b.xyz[k], load.origin(), [1.0; 3], PointEncoding::Full16);
+            for a in 0..3 {
+                let (g, w) = (
+                    f32::from_bits(got.positions[t * 3 + a]),
+                    f32::from_bits(want[a]),
+                );
+                assert!(
+                    ulps(g, w, step[a] as f32) <= 2.0,
+                    "point {i} axis {a}: {g} on the GPU, {w} encoded on the CPU"
+                );
+            }
+            assert_eq!(got.colors[t], point_color(&b, k, &scale), "point {i}");
+            i += 1;
+        }
+    }
+    assert_eq!(i, 120_000);
 }
 
 #[test]

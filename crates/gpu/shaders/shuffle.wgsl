@@ -8,7 +8,10 @@
 // WGSL has only 32-bit integers, so i² mod P is computed by doubling-and-adding mod P.
 // Two variations: `given_slots` takes each point's slot from src_slots instead (points past the
 // capacity of a buffer that keeps a uniform subset, core::progressive::Reservoir), and
-// `colors_only` rewrites only the colours (attribute switching, paper §3.5).
+// `colors_only` rewrites only the colours (attribute switching, paper §3.5). With `quantized`
+// the staged positions are a store's as stored (x, y, z as i32 of its quantization) and become
+// Full16 words here, (q - base) · step + shift relative to the buffer's origin: the file's
+// bytes go to the GPU as they are (paper §5: loading is bound by reading and uploading).
 
 struct Shuffle {
     // Slots of the whole shuffled buffer.
@@ -25,8 +28,15 @@ struct Shuffle {
     has_fine: u32,
     given_slots: u32,
     colors_only: u32,
-    _pad0: u32,
-    _pad1: u32,
+    quantized: u32,
+    _pad: u32,
+    // Dequantization (quantized only): the grid point nearest the origin, the step split in
+    // a high and a low f32 (their sum is the f64 step to 48 bits), the origin's distance from
+    // base.
+    base: vec4<i32>,
+    step_hi: vec4<f32>,
+    step_lo: vec4<f32>,
+    shift: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> shuffle: Shuffle;
@@ -74,6 +84,25 @@ fn permute(i: u32, p: u32) -> u32 {
     return p - square;
 }
 
+// Axis a of a stored position relative to the origin, within about an ulp of the f64 result.
+// q - base may need 33 bits: each is split into its high and low 16 bits, whose differences
+// are exact. Within 2^24 steps of the origin (every survey at mm steps) the difference is
+// exact in f32 and only its product and one sum round; farther, the halves are scaled apart.
+fn dequantize(q: i32, a: u32) -> f32 {
+    let b = shuffle.base[a];
+    let dh = (q >> 16u) - (b >> 16u);
+    let dl = (q & 0xffff) - (b & 0xffff);
+    let hs = shuffle.step_hi[a];
+    let ls = shuffle.step_lo[a];
+    if abs(dh) < 255 {
+        let d = f32(dh * 65536 + dl);
+        return d * hs + (d * ls + shuffle.shift[a]);
+    }
+    let hi = f32(dh) * 65536.0;
+    let lo = f32(dl);
+    return hi * hs + (hi * ls + (lo * hs + (lo * ls + shuffle.shift[a])));
+}
+
 // Eq. 2: one pass of eq. 1 leaves visible runs (paper Fig. 4), two do not.
 fn shuffle_target(i: u32, p: u32) -> u32 {
     return permute(permute(i, p), p);
@@ -103,8 +132,15 @@ fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
     if shuffle.colors_only != 0u {
         return;
     }
-    for (var w = 0u; w < shuffle.words; w++) {
-        dst_positions[d * shuffle.words + w] = src_positions[j * shuffle.words + w];
+    if shuffle.quantized != 0u {
+        for (var a = 0u; a < 3u; a++) {
+            let q = bitcast<i32>(src_positions[j * 3u + a]);
+            dst_positions[d * 3u + a] = bitcast<u32>(dequantize(q, a));
+        }
+    } else {
+        for (var w = 0u; w < shuffle.words; w++) {
+            dst_positions[d * shuffle.words + w] = src_positions[j * shuffle.words + w];
+        }
     }
     if shuffle.has_fine != 0u {
         dst_fine[d] = src_fine[j];

@@ -114,3 +114,107 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, runs: u32) -> Result<Option<
     let ns = times[times.len() / 2].max(1.0);
     Ok(Some(2.0 * bytes as f64 / ns))
 }
+
+/// How fast points reach the GPU through mapped upload memory, the way progressive loading
+/// sends them: threads write into freshly mapped `MAP_WRITE` buffers, then the GPU copies
+/// them into a device buffer (over PCIe, unless the upload memory already lies in VRAM).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UploadBandwidth {
+    /// Bytes moved per run.
+    pub bytes: u64,
+    /// Median GB/s of every rayon thread writing into the mapped buffers.
+    pub write_gbs: f64,
+    /// Median GB/s of the GPU copying them into a device buffer (wall time, submit to done).
+    pub copy_gbs: f64,
+}
+
+/// Measures [`UploadBandwidth`] with `bytes` in buffers of `chunk` bytes, over `runs` runs.
+pub fn upload_bandwidth(
+    ctx: &GpuContext,
+    bytes: u64,
+    chunk: u64,
+    runs: u32,
+) -> Result<UploadBandwidth, GpuError> {
+    use rayon::prelude::*;
+    let device = &ctx.device;
+    let chunk = (chunk / 16 * 16).clamp(16, ctx.caps.max_buffer / 16 * 16);
+    let chunks = bytes.div_ceil(chunk).max(1);
+    let bytes = chunks * chunk;
+    let dst = ctx.checked("allocating the upload target", || {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("upload target"),
+            size: chunk,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    })?;
+    // What the threads write: cached source bytes, as a decoder's output is.
+    let pattern: Vec<u8> = (0..1u32 << 20)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+        .collect();
+    let (mut writes, mut copies) = (Vec::new(), Vec::new());
+    // One warm-up run, then the measured ones.
+    for _ in 0..runs.max(1) + 1 {
+        let staged = ctx.checked("allocating upload memory", || {
+            (0..chunks)
+                .map(|_| {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("upload memory"),
+                        size: chunk,
+                        usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: true,
+                    })
+                })
+                .collect::<Vec<_>>()
+        })?;
+        let started = web_time::Instant::now();
+        let mut views = staged
+            .iter()
+            .map(|b| b.get_mapped_range_mut(..))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| GpuError::InvalidInput(format!("mapping upload memory: {e}")))?;
+        let mut pieces = Vec::new();
+        for view in &mut views {
+            let mut rest = view.slice(..);
+            while !rest.is_empty() {
+                let at = rest.len().min(pattern.len());
+                let (piece, tail) = rest.split_at(at);
+                pieces.push(piece);
+                rest = tail;
+            }
+        }
+        let pieces: Vec<Piece> = pieces.into_iter().map(Piece).collect();
+        pieces
+            .into_par_iter()
+            .for_each(|mut p| p.0.copy_from_slice(&pattern[..p.0.len()]));
+        drop(views);
+        writes.push(started.elapsed().as_secs_f64());
+        for b in &staged {
+            b.unmap();
+        }
+        let mut enc = device.create_command_encoder(&Default::default());
+        for b in &staged {
+            enc.copy_buffer_to_buffer(b, 0, &dst, 0, chunk);
+        }
+        let started = web_time::Instant::now();
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        copies.push(started.elapsed().as_secs_f64());
+    }
+    let median = |mut v: Vec<f64>| {
+        v.remove(0);
+        v.sort_by(f64::total_cmp);
+        bytes as f64 / v[v.len() / 2].max(1e-9) / 1e9
+    };
+    Ok(UploadBandwidth {
+        bytes,
+        write_gbs: median(writes),
+        copy_gbs: median(copies),
+    })
+}
+
+/// A piece of mapped upload memory that one thread fills.
+struct Piece<'a>(wgpu::WriteOnly<'a, [u8]>);
+
+// SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is.
+unsafe impl Send for Piece<'_> {}

@@ -26,7 +26,7 @@ mod target;
 pub mod tile_pool;
 mod upload;
 
-pub use bandwidth::copy_bandwidth;
+pub use bandwidth::{copy_bandwidth, upload_bandwidth, UploadBandwidth};
 pub use cloud::{GpuCloud, PageMeta, PointSet};
 pub use context::{describe, AdapterRequest, Capabilities, GpuContext};
 pub use frame::FrameGraphSummary;

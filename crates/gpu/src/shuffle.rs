@@ -34,6 +34,83 @@ pub struct StagedBatch {
     capacity: u64,
     /// Points written (set by [`finish`](Self::finish)).
     count: u64,
+    /// Set when the position region holds stored positions for the GPU to dequantize.
+    dequantize: Option<Dequantize>,
+}
+
+/// How the shuffle pass turns a store's positions as stored (x, y, z as i32 of its
+/// quantization) into Full16 words relative to the buffer's origin: `(q - base) · step +
+/// shift`, with `base` the grid point nearest the origin and `shift` the origin's distance
+/// from it. Within about an ulp of the f64 `encode_point` of the dequantized position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dequantize {
+    base: [i32; 3],
+    step: [f64; 3],
+    shift: [f64; 3],
+}
+
+impl Dequantize {
+    /// For positions `q · scale + offset` in a buffer whose positions are relative to `origin`.
+    pub fn new(scale: [f64; 3], offset: [f64; 3], origin: [f64; 3]) -> Self {
+        let base = [0, 1, 2].map(|a| {
+            let q = ((origin[a] - offset[a]) / scale[a]).round();
+            if q.is_finite() {
+                q.clamp(i32::MIN as f64, i32::MAX as f64) as i32
+            } else {
+                0
+            }
+        });
+        Self {
+            base,
+            step: scale,
+            shift: [0, 1, 2].map(|a| base[a] as f64 * scale[a] + offset[a] - origin[a]),
+        }
+    }
+
+    /// One stored position's Full16 words, computed as the shader computes them (f32
+    /// products and sums in its order; a GPU that fuses them may differ by an ulp).
+    pub fn words(&self, q: [i32; 3]) -> [u32; 3] {
+        let u = self.uniform();
+        [0, 1, 2].map(|a| {
+            let b = u.base[a];
+            let dh = (q[a] >> 16) - (b >> 16);
+            let dl = (q[a] & 0xffff) - (b & 0xffff);
+            let (hs, ls) = (u.step_hi[a], u.step_lo[a]);
+            if dh.abs() < 255 {
+                let d = (dh * 65536 + dl) as f32;
+                return (d * hs + (d * ls + u.shift[a])).to_bits();
+            }
+            let hi = dh as f32 * 65536.0;
+            let lo = dl as f32;
+            (hi * hs + (hi * ls + (lo * hs + (lo * ls + u.shift[a])))).to_bits()
+        })
+    }
+
+    fn uniform(&self) -> DequantizeUniform {
+        let hi = self.step.map(|s| s as f32);
+        DequantizeUniform {
+            base: [self.base[0], self.base[1], self.base[2], 0],
+            step_hi: [hi[0], hi[1], hi[2], 0.0],
+            step_lo: [0, 1, 2, 3].map(|a| {
+                if a < 3 {
+                    (self.step[a] - hi[a] as f64) as f32
+                } else {
+                    0.0
+                }
+            }),
+            shift: [0, 1, 2, 3].map(|a| if a < 3 { self.shift[a] as f32 } else { 0.0 }),
+        }
+    }
+}
+
+/// The dequantization part of shuffle.wgsl's uniform.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct DequantizeUniform {
+    base: [i32; 4],
+    step_hi: [f32; 4],
+    step_lo: [f32; 4],
+    shift: [f32; 4],
 }
 
 /// The regions of a mapped [`StagedBatch`], to be split between the threads that fill them.
@@ -57,16 +134,17 @@ impl<'a> StagedRegion<'a> {
         (Self(a), Self(b))
     }
 
-    /// Writes the whole region (`words` holds exactly its bytes).
-    pub fn write(&mut self, words: &[u32]) -> Result<(), GpuError> {
-        if words.len() * 4 != self.0.len() {
+    /// Writes the whole region (`data` holds exactly its bytes).
+    pub fn write<T: Pod>(&mut self, data: &[T]) -> Result<(), GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        if bytes.len() != self.0.len() {
             return Err(GpuError::InvalidInput(format!(
                 "{} bytes written into a staged region of {}",
-                words.len() * 4,
+                bytes.len(),
                 self.0.len()
             )));
         }
-        self.0.copy_from_slice(bytemuck::cast_slice(words));
+        self.0.copy_from_slice(bytes);
         Ok(())
     }
 }
@@ -103,7 +181,48 @@ impl StagedBatch {
             encoding,
             capacity,
             count: 0,
+            dequantize: None,
         })
+    }
+
+    /// Points the batch has room for.
+    pub fn capacity(&self) -> u64 {
+        self.capacity
+    }
+
+    /// Maps the batch for writing again once the GPU is done with it (its copy was submitted)
+    /// and hands it to `ready` then, on the thread that polls the device; on a mapping error
+    /// the batch is dropped. A new mapping is zero-filled by one thread before anything is
+    /// written (wgpu initializes memory on first map): a reused batch skips that and the
+    /// allocation.
+    pub fn recycle(mut self, ready: impl FnOnce(StagedBatch) + Send + 'static) {
+        self.count = 0;
+        self.dequantize = None;
+        let buffer = self.buffer.clone();
+        buffer.map_async(wgpu::MapMode::Write, .., move |mapped| {
+            if mapped.is_ok() {
+                ready(self);
+            }
+        });
+    }
+
+    /// Whether the position region holds stored positions for the GPU to dequantize.
+    pub fn holds_stored_positions(&self) -> bool {
+        self.dequantize.is_some()
+    }
+
+    /// Says that the position region holds stored positions (12 bytes a point, as
+    /// [`Dequantize`] reads them) instead of Full16 words (Full16 batches only: a stored
+    /// position takes a Full16 position's 12 bytes).
+    pub fn set_dequantize(&mut self, dequantize: Dequantize) -> Result<(), GpuError> {
+        if self.encoding != PointEncoding::Full16 {
+            return Err(GpuError::InvalidInput(format!(
+                "stored positions in a {} staged batch (Full16 only)",
+                self.encoding.name()
+            )));
+        }
+        self.dequantize = Some(dequantize);
+        Ok(())
     }
 
     /// Where the position, fine and colour regions start in the buffer.
@@ -336,7 +455,9 @@ struct ShuffleUniform {
     has_fine: u32,
     explicit: u32,
     colors_only: u32,
-    _pad: [u32; 2],
+    quantized: u32,
+    _pad: u32,
+    dequantize: DequantizeUniform,
 }
 
 /// The staging streams, grown on demand.
@@ -458,9 +579,9 @@ impl ShufflePass {
         targets: Targets<'_>,
         input: Input<'_>,
     ) -> Result<(), GpuError> {
-        let (count, colors_only) = match input {
-            Input::Slices(batch, colors) => (colors.len() as u64, batch.is_none()),
-            Input::Staged(b) => (b.count, false),
+        let (count, colors_only, dequantize) = match input {
+            Input::Slices(batch, colors) => (colors.len() as u64, batch.is_none(), None),
+            Input::Staged(b) => (b.count, false, b.dequantize),
         };
         let words = dst.encoding.position_bytes() / 4;
         let compact = dst.encoding == PointEncoding::Compact8;
@@ -538,7 +659,9 @@ impl ShufflePass {
                         has_fine: compact as u32,
                         explicit: slots.is_some() as u32,
                         colors_only: colors_only as u32,
-                        _pad: [0; 2],
+                        quantized: dequantize.is_some() as u32,
+                        _pad: 0,
+                        dequantize: dequantize.map(|d| d.uniform()).unwrap_or_default(),
                     };
                     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("shuffle uniform"),

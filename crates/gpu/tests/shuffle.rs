@@ -8,9 +8,9 @@ mod common;
 use pointlet_core::progressive::{prime_3_mod_4_at_most, ShufflePermutation};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
-    EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents, StagedBatch,
+    Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents, StagedBatch,
 };
-use pointlet_gpu::{GpuContext, GpuError, PointEncoding};
+use pointlet_gpu::{encode_point, GpuContext, GpuError, PointEncoding};
 
 /// Distinct pseudo-random streams for `n` points, in load order.
 fn points(n: u32, encoding: PointEncoding, seed: u64) -> ShuffledContents {
@@ -149,6 +149,104 @@ fn batches_land_where_the_cpu_permutation_puts_them() {
             "{encoding:?} / {chunk_slots}: the streams differ"
         );
     }
+}
+
+/// Distance between two floats in f32 steps at `at` (the larger of their magnitude and
+/// `at`): near zero, a few steps of a tiny magnitude are not an error worth counting.
+fn ulps(a: f32, b: f32, at: f32) -> f64 {
+    let x = a.abs().max(b.abs()).max(at);
+    let step = f32::from_bits(x.to_bits() + 1) - x;
+    (a as f64 - b as f64).abs() / step as f64
+}
+
+#[test]
+fn stored_positions_are_dequantized_on_the_gpu_within_an_ulp() {
+    let ctx = common::context();
+    let mut pass = ShufflePass::new(&ctx).unwrap();
+    // A LAS-like quantization (mm, inexact in binary) far from the origin, and a coarse one.
+    let cases = [
+        (
+            [0.001, 0.001, 0.001],
+            [500_000.0, 4_000_000.0, 0.0],
+            [503_210.125, 4_001_999.7, 88.3],
+        ),
+        ([0.25, 0.5, 0.01], [-7.0, 3.0, 1e6], [0.0, 0.0, 1e6 + 12.0]),
+    ];
+    let mut rng = SplitMix64::new(11);
+    for (scale, offset, origin) in cases {
+        let dq = Dequantize::new(scale, offset, origin);
+        // Near the origin, within 2^24 steps of it, and anywhere in i32 (the split halves).
+        let base = [0, 1, 2].map(|a| ((origin[a] - offset[a]) / scale[a]).round() as i64);
+        let n = 20_000u32;
+        let stored: Vec<[i32; 3]> = (0..n)
+            .map(|i| {
+                [0, 1, 2].map(|a| {
+                    let r = rng.next_u64();
+                    let q = match i % 3 {
+                        0 => base[a] + (r % 2001) as i64 - 1000,
+                        1 => base[a] + (r % (1 << 25)) as i64 - (1 << 24),
+                        _ => r as u32 as i32 as i64,
+                    };
+                    q.clamp(i32::MIN as i64, i32::MAX as i64) as i32
+                })
+            })
+            .collect();
+        let dst = ShuffledBuffer::new(&ctx, PointEncoding::Full16, n).unwrap();
+        let mut staged = StagedBatch::new(&ctx.device, PointEncoding::Full16, n as u64).unwrap();
+        let colors: Vec<u32> = (0..n).collect();
+        let mut view = staged.map().unwrap();
+        let regions = staged.regions(&mut view);
+        let (mut p, mut c) = (regions.positions, regions.colors);
+        p.write(&stored).unwrap();
+        c.write(&colors).unwrap();
+        drop(view);
+        staged.finish(n as u64);
+        staged.set_dequantize(dq).unwrap();
+        pass.scatter_staged(&ctx, &dst, 0, &staged).unwrap();
+        let got = dst.read(&ctx).unwrap();
+        let perm = ShufflePermutation::new(n as u64).unwrap();
+        // Worst distance from the f64 encoding, near the origin (within 2^24 steps) and far.
+        let mut worst = [0.0f64, 0.0];
+        for (i, q) in stored.iter().enumerate() {
+            let t = perm.target(i as u64) as usize;
+            assert_eq!(got.colors[t], i as u32);
+            // The f64 encoding of the dequantized position loses ~1e-9 to the cancellation
+            // of two large coordinates; measured from the grid point nearest the origin, it
+            // does not.
+            let p = [0, 1, 2].map(|a| q[a] as f64 * scale[a] + offset[a]);
+            let cpu = encode_point(p, origin, [1.0; 3], PointEncoding::Full16);
+            let mirror = dq.words(*q);
+            for a in 0..3 {
+                let g = f32::from_bits(got.positions[t * 3 + a]);
+                let exact = (q[a] as i64 - base[a]) as f64 * scale[a]
+                    + (base[a] as f64 * scale[a] + offset[a] - origin[a]);
+                let w = exact as f32;
+                let c = f32::from_bits(cpu[a]);
+                assert!(
+                    ulps(g, c, scale[a] as f32) <= 4.0,
+                    "point {i} axis {a}: GPU {g}, CPU encoding {c}"
+                );
+                // The CPU mirror follows the shader's operations; the f64 encoding is the truth.
+                let m = f32::from_bits(mirror[a]);
+                assert!(
+                    ulps(g, m, scale[a] as f32) <= 1.0,
+                    "point {i} axis {a}: GPU {g}, CPU mirror {}",
+                    m
+                );
+                let class = usize::from(i % 3 == 2);
+                worst[class] = worst[class].max(ulps(g, w, scale[a] as f32));
+            }
+        }
+        assert!(
+            worst[0] <= 1.0 && worst[1] <= 4.0,
+            "{scale:?}: {worst:?} ulps from the f64 encoding"
+        );
+    }
+    // Compact8 batches keep 8 bytes a point: stored positions do not fit them.
+    let mut compact = StagedBatch::new(&ctx.device, PointEncoding::Compact8, 4).unwrap();
+    assert!(compact
+        .set_dequantize(Dequantize::new([1.0; 3], [0.0; 3], [0.0; 3]))
+        .is_err());
 }
 
 #[test]

@@ -374,51 +374,44 @@ impl Store {
         b: &mut PointBatch,
         raw: &mut Vec<u8>,
     ) -> Result<(), StoreError> {
-        if range.is_empty() {
-            return Err(StoreError::request(
-                &self.path,
-                format!("no pointlets in {range:?}"),
-            ));
-        }
-        let (first, last) = (*self.entry(range.start)?, *self.entry(range.end - 1)?);
-        let n = (last.first + last.count as u64 - first.first) as usize;
+        self.read_streams_into(range, kinds, true, b, raw)
+    }
+
+    /// Like [`read_pointlet_streams_into`](Self::read_pointlet_streams_into) without the
+    /// positions: only the streams `kinds` names are read, every other column stays empty
+    /// (the batch's `len()` is 0). For readers that take the positions as stored
+    /// ([`read_stream_into`](Self::read_stream_into)).
+    pub fn read_pointlet_attributes_into(
+        &self,
+        range: Range<usize>,
+        kinds: &[StreamKind],
+        b: &mut PointBatch,
+        raw: &mut Vec<u8>,
+    ) -> Result<(), StoreError> {
+        self.read_streams_into(range, kinds, false, b, raw)
+    }
+
+    fn read_streams_into(
+        &self,
+        range: Range<usize>,
+        kinds: &[StreamKind],
+        positions: bool,
+        b: &mut PointBatch,
+        raw: &mut Vec<u8>,
+    ) -> Result<(), StoreError> {
         b.clear(self.header.layout);
-        let streams = self.header.streams.len();
-        for (s, info) in self.header.streams.iter().enumerate() {
-            if info.kind != StreamKind::Position && !kinds.contains(&info.kind) {
+        for info in &self.header.streams {
+            let wanted = if info.kind == StreamKind::Position {
+                positions
+            } else {
+                kinds.contains(&info.kind)
+            };
+            if !wanted {
                 continue;
             }
-            let bpp = info.bytes_per_point as usize;
-            // Grown, never shrunk: zero-filling it again for every stream costs a pass.
-            if raw.len() < n * bpp {
-                raw.resize(n * bpp, 0);
-            }
-            let raw = &mut raw[..n * bpp];
-            read_at(
-                &*self.source,
-                &self.path,
-                raw,
-                info.offset + first.first * bpp as u64,
-                "reading a stream",
-            )?;
-            let mut at = 0;
-            for i in range.clone() {
-                let bytes = self.pointlets[i].count as usize * bpp;
-                let stored = self.checksums[i * streams + s];
-                let actual = crc32fast::hash(&raw[at..at + bytes]);
-                if stored != actual {
-                    return Err(StoreError::damaged(
-                        &self.path,
-                        format!(
-                            "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
-                            info.kind.name()
-                        ),
-                    ));
-                }
-                at += bytes;
-            }
+            let bytes = self.read_stream_into(range.clone(), info.kind, raw)?;
             let q = self.header.quantization;
-            let raw = &raw[..];
+            let raw = &raw[..bytes];
             match info.kind {
                 StreamKind::Position => b.xyz.extend(
                     raw.chunks_exact(12)
@@ -443,6 +436,69 @@ impl Store {
             }
         }
         Ok(())
+    }
+
+    /// The stored bytes of stream `kind` for pointlets `range` (consecutive), one positioned
+    /// read, each pointlet's bytes checked against its CRC32: they fill `raw[..n]`, n
+    /// returned (`raw` is grown, never shrunk: zero-filling it again for every part costs a
+    /// pass). Positions are 12 bytes a point, x, y, z as little-endian i32 of the header's
+    /// quantization (docs/FORMAT.md).
+    pub fn read_stream_into(
+        &self,
+        range: Range<usize>,
+        kind: StreamKind,
+        raw: &mut Vec<u8>,
+    ) -> Result<usize, StoreError> {
+        if range.is_empty() {
+            return Err(StoreError::request(
+                &self.path,
+                format!("no pointlets in {range:?}"),
+            ));
+        }
+        let (first, last) = (*self.entry(range.start)?, *self.entry(range.end - 1)?);
+        let n = (last.first + last.count as u64 - first.first) as usize;
+        let streams = self.header.streams.len();
+        let Some((s, info)) = self
+            .header
+            .streams
+            .iter()
+            .enumerate()
+            .find(|(_, info)| info.kind == kind)
+        else {
+            return Err(StoreError::request(
+                &self.path,
+                format!("the store has no {} stream", kind.name()),
+            ));
+        };
+        let bpp = info.bytes_per_point as usize;
+        if raw.len() < n * bpp {
+            raw.resize(n * bpp, 0);
+        }
+        let raw = &mut raw[..n * bpp];
+        read_at(
+            &*self.source,
+            &self.path,
+            raw,
+            info.offset + first.first * bpp as u64,
+            "reading a stream",
+        )?;
+        let mut at = 0;
+        for i in range {
+            let bytes = self.pointlets[i].count as usize * bpp;
+            let stored = self.checksums[i * streams + s];
+            let actual = crc32fast::hash(&raw[at..at + bytes]);
+            if stored != actual {
+                return Err(StoreError::damaged(
+                    &self.path,
+                    format!(
+                        "pointlet {i}: the {} stream's checksum is {actual:08x}, the table says {stored:08x}",
+                        info.kind.name()
+                    ),
+                ));
+            }
+            at += bytes;
+        }
+        Ok(n * bpp)
     }
 
     /// Reads the whole file: every stream checksum of every pointlet, every pointlet's AABB
