@@ -63,6 +63,9 @@ struct Summary<'a> {
     upload_bytes: u64,
     upload_write_gbs: f64,
     upload_copy_gbs: f64,
+    /// Batches staged in newly mapped upload memory, and in reused memory.
+    staged_new: u64,
+    staged_reused: u64,
     /// Frame statistics of the frames drawn while loading.
     loading_stats: Option<FrameStats>,
     stats: &'a FrameStats,
@@ -251,6 +254,12 @@ pub fn run(args: &Args) -> Result<()> {
     )
     .context("measuring the upload path")?;
     println!(
+        "upload memory: {} batches staged, {} newly mapped, {} reused",
+        progress.staged_new + progress.staged_reused,
+        progress.staged_new,
+        progress.staged_reused
+    );
+    println!(
         "upload path ({} MB): threads write mapped upload memory at {:.1} GB/s, the GPU copies it at {:.1} GB/s; loading moved {:.1} GB/s of 16-byte points",
         upload.bytes / 1_000_000,
         upload.write_gbs,
@@ -283,6 +292,8 @@ pub fn run(args: &Args) -> Result<()> {
             upload_bytes: upload.bytes,
             upload_write_gbs: upload.write_gbs,
             upload_copy_gbs: upload.copy_gbs,
+            staged_new: progress.staged_new,
+            staged_reused: progress.staged_reused,
             loading_stats,
             stats: &stats,
             stages: &stage_table,

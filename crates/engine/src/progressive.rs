@@ -125,6 +125,10 @@ pub struct LoadProgress {
     /// Since the load started, until it ended.
     pub elapsed: Duration,
     pub state: LoadState,
+    /// Batches staged in mapped upload memory: newly mapped (allocated and zero-filled) and
+    /// reused once the GPU had copied them.
+    pub staged_new: u64,
+    pub staged_reused: u64,
 }
 
 impl LoadProgress {
@@ -200,6 +204,8 @@ struct Shared {
     staged_pool: Mutex<Vec<StagedBatch>>,
     /// Whether batches are still recycled into the pool (not once loading ended).
     recycling: AtomicBool,
+    staged_new: AtomicU64,
+    staged_reused: AtomicU64,
 }
 
 impl Shared {
@@ -210,7 +216,14 @@ impl Shared {
             let fits = pool.iter().position(|b| b.capacity() >= points);
             fits.map(|i| pool.swap_remove(i))
         };
-        reused.or_else(|| StagedBatch::new(device, PointEncoding::Full16, points).ok())
+        if reused.is_some() {
+            self.staged_reused.fetch_add(1, Ordering::Relaxed);
+            return reused;
+        }
+        let new = StagedBatch::new(device, PointEncoding::Full16, points).ok();
+        self.staged_new
+            .fetch_add(u64::from(new.is_some()), Ordering::Relaxed);
+        new
     }
 
     /// Returns a staged batch whose copy was submitted to the pool once it is mapped again.
@@ -330,6 +343,8 @@ impl ProgressiveLoad {
             device: OnceLock::new(),
             staged_pool: Mutex::new(Vec::new()),
             recycling: AtomicBool::new(true),
+            staged_new: AtomicU64::new(0),
+            staged_reused: AtomicU64::new(0),
         });
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
         let job_extras = extras.clone();
@@ -446,6 +461,8 @@ impl ProgressiveLoad {
             file_bytes: self.file_bytes,
             elapsed: self.ended.unwrap_or_else(Instant::now) - self.started,
             state: self.state,
+            staged_new: self.shared.staged_new.load(Ordering::Relaxed),
+            staged_reused: self.shared.staged_reused.load(Ordering::Relaxed),
         }
     }
 
