@@ -507,14 +507,14 @@ impl ProgressiveLoad {
                             })?,
                         },
                     };
-                    if let (Some(_), Targets::Permuted { first }) = (&b.staged, targets) {
-                        if let Some(staged) = b.staged.take() {
-                            pass.scatter_staged(ctx, dst, first, &staged)?;
-                            if staged.holds_stored_positions() {
-                                up.stored += b.read;
-                            }
-                            self.shared.recycle(staged);
+                    // Staged batches are within the capacity: always permuted.
+                    if let (Some(staged), Targets::Permuted { first }) = (b.staged.take(), targets)
+                    {
+                        pass.scatter_staged(ctx, dst, first, &staged)?;
+                        if staged.holds_stored_positions() {
+                            up.stored += b.read;
                         }
+                        self.shared.recycle(staged);
                     } else if self.colors_only {
                         pass.scatter_colors(ctx, dst, targets, &b.colors)?;
                     } else {

@@ -4,6 +4,7 @@
 use crate::context::GpuContext;
 use crate::raster::grid;
 use crate::shaders;
+use crate::shuffle::StagedRegion;
 use crate::target::map_read;
 use crate::GpuError;
 
@@ -183,10 +184,14 @@ pub fn upload_bandwidth(
                 rest = tail;
             }
         }
-        let pieces: Vec<Piece> = pieces.into_iter().map(Piece).collect();
+        let pieces: Vec<StagedRegion> = pieces.into_iter().map(StagedRegion).collect();
         pieces
             .into_par_iter()
-            .for_each(|mut p| p.0.copy_from_slice(&pattern[..p.0.len()]));
+            .map(|mut p| {
+                let len = p.0.len();
+                p.write(&pattern[..len])
+            })
+            .collect::<Result<(), GpuError>>()?;
         drop(views);
         writes.push(started.elapsed().as_secs_f64());
         for b in &staged {
@@ -212,9 +217,3 @@ pub fn upload_bandwidth(
         copy_gbs: median(copies),
     })
 }
-
-/// A piece of mapped upload memory that one thread fills.
-struct Piece<'a>(wgpu::WriteOnly<'a, [u8]>);
-
-// SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is.
-unsafe impl Send for Piece<'_> {}

@@ -88,17 +88,14 @@ impl Dequantize {
 
     fn uniform(&self) -> DequantizeUniform {
         let hi = self.step.map(|s| s as f32);
+        let lo = [0, 1, 2].map(|a| (self.step[a] - hi[a] as f64) as f32);
+        let shift = self.shift.map(|s| s as f32);
+        let [b0, b1, b2] = self.base;
         DequantizeUniform {
-            base: [self.base[0], self.base[1], self.base[2], 0],
+            base: [b0, b1, b2, 0],
             step_hi: [hi[0], hi[1], hi[2], 0.0],
-            step_lo: [0, 1, 2, 3].map(|a| {
-                if a < 3 {
-                    (self.step[a] - hi[a] as f64) as f32
-                } else {
-                    0.0
-                }
-            }),
-            shift: [0, 1, 2, 3].map(|a| if a < 3 { self.shift[a] as f32 } else { 0.0 }),
+            step_lo: [lo[0], lo[1], lo[2], 0.0],
+            shift: [shift[0], shift[1], shift[2], 0.0],
         }
     }
 }
@@ -121,7 +118,7 @@ pub struct StagedRegions<'a> {
 }
 
 /// Bytes of a mapped [`StagedBatch`] that one thread writes.
-pub struct StagedRegion<'a>(wgpu::WriteOnly<'a, [u8]>);
+pub struct StagedRegion<'a>(pub(crate) wgpu::WriteOnly<'a, [u8]>);
 
 // SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is;
 // wgpu implements Send only for sized targets.
