@@ -38,8 +38,9 @@ use std::time::{Duration, Instant};
 pub const BATCH_POINTS: usize = 500_000;
 /// Encoded batches that may wait for the render thread.
 pub const QUEUE_BATCHES: usize = 4;
-/// Batches of LAS/LAZ parts decoded at once.
-pub const BATCHES_DECODING: usize = 3;
+/// Batches of LAS/LAZ parts decoding at once; their parts run in file order, so this bounds how
+/// far decoding runs ahead of the oldest batch.
+pub const BATCHES_DECODING: usize = 8;
 
 /// Words of a Full16 position.
 const WORDS: usize = 3;
@@ -60,8 +61,8 @@ pub struct LoadConfig {
     pub queue_batches: usize,
     /// LAS/LAZ parts a batch takes at least, beyond `batch_points` (0: one per decoding thread).
     pub parallel_parts: usize,
-    /// Batches of LAS/LAZ parts decoded at once (at least 1), so that no core waits for the
-    /// slowest part of one batch; they are handed over in file order.
+    /// Batches of LAS/LAZ parts that may be decoding at once (at least 1), so that no core waits
+    /// for the slowest part of one batch; they are handed over in file order.
     pub batches_decoding: usize,
     /// What text files do not say for themselves.
     pub read: ReadOptions,
@@ -466,6 +467,17 @@ impl ProgressiveLoad {
         }
     }
 
+    /// The GPU the batches are for: from now on the load thread decodes into mapped upload
+    /// memory (before, batches wait in memory and the render thread uploads them).
+    pub fn use_device(&self, device: &wgpu::Device) {
+        self.shared.device.get_or_init(|| device.clone());
+    }
+
+    /// The GPU given to [`use_device`](Self::use_device), if any.
+    pub(crate) fn device(&self) -> Option<&wgpu::Device> {
+        self.shared.device.get()
+    }
+
     /// Scatters up to `max_batches` batches that are ready into `dst` (a Full16 buffer of
     /// [`slots`](Self::slots) slots) without waiting for the load thread. An `Err` is a GPU or
     /// configuration error; the reader's error comes back once, in [`Uploaded::failure`].
@@ -485,7 +497,7 @@ impl ProgressiveLoad {
                 dst.permutation().len()
             )));
         }
-        self.shared.device.get_or_init(|| ctx.device.clone());
+        self.use_device(&ctx.device);
         let mut up = Uploaded::default();
         while up.batches < max_batches {
             let Some(queue) = &self.queue else { break };
@@ -616,10 +628,11 @@ fn load(mut reader: Box<dyn PointReader>, job: Job) {
 /// Parts grouped into batches in file order, each group decoded in parallel.
 fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
     let sizes = parts.part_sizes();
+    let mut sample = Vec::new();
     let color = *job.shared.color.get_or_init(|| {
         // Decoded in parallel: the sample delays the first batch. A part that fails is left
         // out of it: loading reports the failure when it gets there.
-        let sample: Vec<PointBatch> = sample_indices(sizes.len())
+        sample = sample_indices(sizes.len())
             .into_par_iter()
             .map(|i| {
                 let mut b = PointBatch::default();
@@ -629,7 +642,6 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
                 }
             })
             .collect();
-        measure_spacing(job, &sample);
         choose_color(job, &sample.iter().collect::<Vec<_>>())
     });
     // A batch is decoded in parallel and waits for its slowest part: it takes at least one
@@ -657,41 +669,70 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
         first += points;
         part = end;
     }
-    // Several batches decode at once; dropping the load cancels those not started.
-    let cancelled = std::sync::atomic::AtomicBool::new(false);
-    rayon::in_place_scope(|scope| {
-        let mut pending = std::collections::VecDeque::with_capacity(job.batches_decoding);
-        let mut planned = plan.into_iter();
-        loop {
-            while pending.len() < job.batches_decoding {
-                let Some(batch) = planned.next() else { break };
-                let (tx, rx) = sync_channel(1);
-                let cancelled = &cancelled;
-                scope.spawn(move |_| {
-                    if !cancelled.load(Ordering::Relaxed) {
-                        // The receiver is gone only when loading already stopped.
-                        let _ = tx.send(decode_batch(parts, job, &color, batch));
-                    }
-                });
-                pending.push_back(rx);
-            }
-            let Some(rx) = pending.pop_front() else {
-                return Ok(());
-            };
-            let end = match rx.recv() {
-                Ok(decoded) => decoded,
-                Err(_) => Err(Stop::Failed(format!(
-                    "{}: a decoding task ended without its batch",
-                    job.path.display()
-                ))),
-            }
-            .and_then(|(out, failure)| {
-                send(job, out)?;
-                failure.map_or(Ok(()), |message| Err(Stop::Failed(message)))
+    // Each batch in flight has a thread of its own that queues the batch's parts as separate
+    // tasks and waits for them outside the pool. Parts then run in the order they were queued
+    // and batches finish in file order: batches decoded with nested parallel loops interleave,
+    // since a worker waiting for its half of one batch takes on parts of the next ones, and
+    // they all finish late, together.
+    let (cancelled, scratches) = (AtomicBool::new(false), ScratchPool::default());
+    let (work, tickets) = std::sync::mpsc::channel::<(usize, PlannedBatch)>();
+    let tickets = Mutex::new(tickets);
+    std::thread::scope(|threads| {
+        // Owned here: dropping it on return ends the batch threads, which the scope joins.
+        let work = work;
+        // The spacing is for splat sizes, not needed to decode: measured beside the batches.
+        if !sample.is_empty() {
+            let sample = &sample;
+            threads.spawn(move || measure_spacing(job, sample));
+        }
+        let (done, decoded) = std::sync::mpsc::channel();
+        for _ in 0..job.batches_decoding {
+            let (tickets, done, cancelled) = (&tickets, done.clone(), &cancelled);
+            let (color, scratches) = (&color, &scratches);
+            threads.spawn(move || loop {
+                // The lock is held only while waiting for the next batch.
+                let next = tickets.lock().unwrap_or_else(|e| e.into_inner()).recv();
+                let Ok((k, batch)) = next else { return };
+                let result = if cancelled.load(Ordering::Relaxed) {
+                    Err(Stop::Closed)
+                } else {
+                    decode_batch(parts, job, color, batch, scratches)
+                };
+                // The receiver is gone only when loading already stopped.
+                let _ = done.send((k, result));
             });
-            if end.is_err() {
-                cancelled.store(true, Ordering::Relaxed);
-                return end;
+        }
+        drop(done);
+        let mut planned = plan.into_iter().enumerate();
+        let mut finished = std::collections::BTreeMap::new();
+        let (mut next, mut given) = (0, 0);
+        loop {
+            while given < next + job.batches_decoding {
+                let Some(batch) = planned.next() else { break };
+                // The batch threads hold the receiver until this sender is dropped.
+                let _ = work.send(batch);
+                given += 1;
+            }
+            if next == given {
+                return Ok(());
+            }
+            let (k, result) = decoded.recv().map_err(|_| {
+                Stop::Failed(format!(
+                    "{}: the decoding threads stopped before the end of the file",
+                    job.path.display()
+                ))
+            })?;
+            finished.insert(k, result);
+            while let Some(result) = finished.remove(&next) {
+                next += 1;
+                let end = result.and_then(|(out, failure)| {
+                    send(job, out)?;
+                    failure.map_or(Ok(()), |message| Err(Stop::Failed(message)))
+                });
+                if end.is_err() {
+                    cancelled.store(true, Ordering::Relaxed);
+                    return end;
+                }
             }
         }
     })
@@ -711,6 +752,7 @@ fn decode_batch(
     job: &Job,
     color: &LoadColor,
     batch: PlannedBatch,
+    scratches: &ScratchPool,
 ) -> Result<(EncodedPoints, Option<String>), Stop> {
     let sizes = parts.part_sizes();
     let PlannedBatch {
@@ -772,44 +814,17 @@ fn decode_batch(
         .quantized_positions()
         .filter(|_| staged.is_some() && color.scale.mode != ColorMode::Elevation)
         .map(|q| Dequantize::new(q.scale, q.offset, job.origin));
-    let results: Vec<Result<(), String>> = jobs
-        .into_par_iter()
-        .map_init(
-            || (PointBatch::default(), Vec::new(), Vec::new(), Vec::new()),
-            |(batch, scratch, p_words, c_words), (i, share)| {
-                let share = match (stored, share) {
-                    (Some(_), Share::Mapped(p, c)) => {
-                        return stored_part(parts, job, color, i, (batch, scratch, c_words), p, c)
-                    }
-                    (_, share) => share,
-                };
-                parts
-                    .decode_part_for(i, batch, scratch, color.scale.mode)
-                    .map_err(|e| e.to_string())?;
-                if batch.len() as u64 != sizes[i] {
-                    return Err(format!(
-                        "{}: part {i} decoded to {} points, its size is {}",
-                        job.path.display(),
-                        batch.len(),
-                        sizes[i]
-                    ));
-                }
-                match share {
-                    Share::Slices(p, c) => encode_into(batch, job.origin, &color.scale, p, c),
-                    Share::Mapped(mut p, mut c) => {
-                        // Encoded in cache, then written once: mapped memory may be
-                        // write-combining.
-                        p_words.resize(batch.len() * WORDS, 0u32);
-                        c_words.resize(batch.len(), 0u32);
-                        encode_into(batch, job.origin, &color.scale, p_words, c_words);
-                        p.write(p_words).map_err(|e| e.to_string())?;
-                        c.write(c_words).map_err(|e| e.to_string())?;
-                    }
-                }
-                Ok(())
-            },
-        )
-        .collect();
+    // One task per part, queued in order (see `load_parts`), each with scratch from the pool.
+    let mut results: Vec<Result<(), String>> = jobs.iter().map(|_| Ok(())).collect();
+    rayon::in_place_scope(|scope| {
+        for ((i, share), result) in jobs.into_iter().zip(results.iter_mut()) {
+            scope.spawn(move |_| {
+                let mut scratch = scratches.take();
+                *result = encode_part(parts, job, color, stored, i, share, &mut scratch);
+                scratches.put(scratch);
+            });
+        }
+    });
     // The parts before the first that failed are good: they go to the GPU before the error.
     let good = results.iter().take_while(|r| r.is_ok()).count();
     let kept: u64 = sizes[range.start..range.start + good].iter().sum();
@@ -831,6 +846,80 @@ fn decode_batch(
     }
     out.read = kept;
     Ok((out, results.into_iter().nth(good).and_then(Result::err)))
+}
+
+/// Decodes part `i` and encodes it into its share of the batch.
+fn encode_part(
+    parts: &dyn PartedSource,
+    job: &Job,
+    color: &LoadColor,
+    stored: Option<Dequantize>,
+    i: usize,
+    share: Share<'_>,
+    scratch: &mut PartScratch,
+) -> Result<(), String> {
+    let PartScratch {
+        batch,
+        bytes,
+        positions,
+        colors,
+    } = scratch;
+    let share = match (stored, share) {
+        (Some(_), Share::Mapped(p, c)) => {
+            return stored_part(parts, job, color, i, (batch, bytes, colors), p, c)
+        }
+        (_, share) => share,
+    };
+    parts
+        .decode_part_for(i, batch, bytes, color.scale.mode)
+        .map_err(|e| e.to_string())?;
+    let size = parts.part_sizes()[i];
+    if batch.len() as u64 != size {
+        return Err(format!(
+            "{}: part {i} decoded to {} points, its size is {size}",
+            job.path.display(),
+            batch.len(),
+        ));
+    }
+    match share {
+        Share::Slices(p, c) => encode_into(batch, job.origin, &color.scale, p, c),
+        Share::Mapped(mut p, mut c) => {
+            // Encoded in cache, then written once: mapped memory may be write-combining.
+            positions.resize(batch.len() * WORDS, 0u32);
+            colors.resize(batch.len(), 0u32);
+            encode_into(batch, job.origin, &color.scale, positions, colors);
+            p.write(positions).map_err(|e| e.to_string())?;
+            c.write(colors).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}
+
+/// What decoding one part needs besides its share: reused from part to part.
+#[derive(Default)]
+struct PartScratch {
+    batch: PointBatch,
+    bytes: Vec<u8>,
+    positions: Vec<u32>,
+    colors: Vec<u32>,
+}
+
+/// Scratch of finished parts for the next ones (dropped with the load).
+#[derive(Default)]
+struct ScratchPool(Mutex<Vec<PartScratch>>);
+
+impl ScratchPool {
+    fn take(&self) -> PartScratch {
+        let mut pool = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        pool.pop().unwrap_or_default()
+    }
+
+    fn put(&self, scratch: PartScratch) {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(scratch);
+    }
 }
 
 /// A store's part for a [`Share::Mapped`]: its positions as stored into the position region

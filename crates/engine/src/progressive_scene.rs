@@ -211,6 +211,8 @@ impl ProgressiveScene {
         mut config: ProgressiveConfig,
     ) -> Result<Self, EngineError> {
         let path = load.path().to_path_buf();
+        // Batches decoded from now on go straight into upload memory.
+        load.use_device(&ctx.device);
         config.load.max_slots = load.slots();
         let renderer = ProgressiveRenderer::new(ctx, config.variant, config.page_size)?;
         let slots = u32::try_from(load.slots()).map_err(|_| {
@@ -390,6 +392,9 @@ impl ProgressiveScene {
             load.colors_only = true;
         }
         let next = ProgressiveLoad::start_many(self.load.inputs(), load.clone())?;
+        if let Some(device) = self.load.device() {
+            next.use_device(device);
+        }
         self.load = next;
         self.config.load.color = mode;
         self.config.load.scale = scale;
