@@ -36,8 +36,10 @@ use std::time::{Duration, Instant};
 
 /// Points per batch: the paper's 500 k.
 pub const BATCH_POINTS: usize = 500_000;
-/// Encoded batches that may wait for the render thread.
-pub const QUEUE_BATCHES: usize = 4;
+/// Encoded batches that may wait for the render thread: enough that decoding goes on while the
+/// scene is made and its first frames are drawn (~0.1 s on the H200, when four batches
+/// stalled the loader). Upload memory held by waiting batches is reused until loading ends.
+pub const QUEUE_BATCHES: usize = 64;
 /// Batches of LAS/LAZ parts decoding at once; their parts run in file order, so this bounds how
 /// far decoding runs ahead of the oldest batch.
 pub const BATCHES_DECODING: usize = 8;
