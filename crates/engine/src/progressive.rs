@@ -685,13 +685,18 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
         // The spacing is for splat sizes, not needed to decode: measured beside the batches.
         if !sample.is_empty() {
             let sample = &sample;
-            threads.spawn(move || measure_spacing(job, sample));
+            let spawned = std::thread::Builder::new()
+                .name("point-spacing".into())
+                .spawn_scoped(threads, move || measure_spacing(job, sample));
+            if spawned.is_err() {
+                measure_spacing(job, sample);
+            }
         }
         let (done, decoded) = std::sync::mpsc::channel();
         for _ in 0..job.batches_decoding {
             let (tickets, done, cancelled) = (&tickets, done.clone(), &cancelled);
             let (color, scratches) = (&color, &scratches);
-            threads.spawn(move || loop {
+            let batch_thread = move || loop {
                 // The lock is held only while waiting for the next batch.
                 let next = tickets.lock().unwrap_or_else(|e| e.into_inner()).recv();
                 let Ok((k, batch)) = next else { return };
@@ -702,7 +707,11 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
                 };
                 // The receiver is gone only when loading already stopped.
                 let _ = done.send((k, result));
-            });
+            };
+            std::thread::Builder::new()
+                .name("point-batch".into())
+                .spawn_scoped(threads, batch_thread)
+                .map_err(|e| Stop::Failed(format!("starting a decoding thread: {e}")))?;
         }
         drop(done);
         let mut planned = plan.into_iter().enumerate();
