@@ -869,18 +869,16 @@ fn encode_part(
     share: Share<'_>,
     scratch: &mut PartScratch,
 ) -> Result<(), String> {
+    let share = match (stored, share) {
+        (Some(_), Share::Mapped(p, c)) => return stored_part(parts, job, color, i, scratch, p, c),
+        (_, share) => share,
+    };
     let PartScratch {
         batch,
         bytes,
         positions,
         colors,
     } = scratch;
-    let share = match (stored, share) {
-        (Some(_), Share::Mapped(p, c)) => {
-            return stored_part(parts, job, color, i, (batch, bytes, colors), p, c)
-        }
-        (_, share) => share,
-    };
     parts
         .decode_part_for(i, batch, bytes, color.scale.mode)
         .map_err(|e| e.to_string())?;
@@ -940,13 +938,19 @@ fn stored_part(
     job: &Job,
     color: &LoadColor,
     i: usize,
-    (batch, scratch, c_words): (&mut PointBatch, &mut Vec<u8>, &mut Vec<u32>),
+    scratch: &mut PartScratch,
     mut p: StagedRegion<'_>,
     mut c: StagedRegion<'_>,
 ) -> Result<(), String> {
+    let PartScratch {
+        batch,
+        bytes: raw,
+        colors: c_words,
+        ..
+    } = scratch;
     let size = parts.part_sizes()[i];
     let bytes = parts
-        .read_quantized_positions(i, scratch)
+        .read_quantized_positions(i, raw)
         .map_err(|e| e.to_string())?;
     if bytes as u64 != size * 12 {
         return Err(format!(
@@ -954,9 +958,9 @@ fn stored_part(
             job.path.display(),
         ));
     }
-    p.write(&scratch[..bytes]).map_err(|e| e.to_string())?;
+    p.write(&raw[..bytes]).map_err(|e| e.to_string())?;
     parts
-        .decode_attributes_for(i, batch, scratch, color.scale.mode)
+        .decode_attributes_for(i, batch, raw, color.scale.mode)
         .map_err(|e| e.to_string())?;
     c_words.resize(size as usize, 0u32);
     point_colors(batch, &color.scale, c_words);
