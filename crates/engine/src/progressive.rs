@@ -26,7 +26,6 @@ use pointlet_gpu::shuffle::{
 use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::{PointReader, ReadOptions};
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
@@ -764,7 +763,7 @@ fn decode_batch(
     color: &LoadColor,
     batch: PlannedBatch,
     scratches: &ScratchPool,
-) -> Result<(EncodedPoints, Option<String>), Stop> {
+) -> Result<(Vec<EncodedPoints>, Option<String>), Stop> {
     let sizes = parts.part_sizes();
     let PlannedBatch {
         parts: range,
@@ -856,7 +855,8 @@ fn decode_batch(
         }
     }
     out.read = kept;
-    Ok((out, results.into_iter().nth(good).and_then(Result::err)))
+    let failure = results.into_iter().nth(good).and_then(Result::err);
+    Ok((split_at_capacity(job, out), failure))
 }
 
 /// Decodes part `i` and encodes it into its share of the batch.
@@ -1015,7 +1015,7 @@ fn load_sequential(reader: &mut dyn PointReader, job: &Job) -> Result<(), Stop> 
             &mut out.positions,
             &mut out.colors,
         );
-        send(job, out)?;
+        send(job, split_at_capacity(job, out))?;
         first += n as u64;
     }
 }
@@ -1088,55 +1088,70 @@ fn encode_into(
     }
 }
 
-/// Hands a batch to the render thread (waiting while the queue is full): the points within
-/// the reservoir's capacity as they are, those past it with the slots they replace.
-fn send(job: &Job, batch: EncodedPoints) -> Result<(), Stop> {
-    if batch.read == 0 {
-        return Ok(());
-    }
+/// A batch as the render thread takes it: the points within the reservoir's capacity as they
+/// are, those past it with the slots they replace (on the calling thread, in parallel: this is
+/// a file's whole rest once it outgrows the GPU budget).
+fn split_at_capacity(job: &Job, batch: EncodedPoints) -> Vec<EncodedPoints> {
     let capacity = job.reservoir.capacity();
     let (first, n) = (batch.first, batch.read);
-    let words = batch.positions.len() / batch.colors.len().max(1);
-    let mut messages = Vec::with_capacity(2);
-    if first + n <= capacity {
-        messages.push(batch);
-    } else {
-        let inside = capacity.saturating_sub(first) as usize;
-        if inside > 0 {
-            messages.push(EncodedPoints {
-                first,
-                slots: None,
-                positions: batch.positions[..inside * words].to_vec(),
-                colors: batch.colors[..inside].to_vec(),
-                staged: None,
-                read: inside as u64,
-            });
-        }
-        // A later point replacing the same slot wins, also inside one batch.
-        let mut last: HashMap<u32, usize> = HashMap::new();
-        for k in inside..batch.colors.len() {
-            if let Some(slot) = job.reservoir.slot(first + k as u64) {
-                last.insert(slot as u32, k);
-            }
-        }
-        let mut kept: Vec<(u32, usize)> = last.into_iter().collect();
-        kept.sort_unstable();
-        let mut out = EncodedPoints {
-            first: first + inside as u64,
-            slots: Some(kept.iter().map(|(s, _)| *s).collect()),
-            positions: Vec::with_capacity(kept.len() * words),
-            colors: Vec::with_capacity(kept.len()),
-            staged: None,
-            read: n - inside as u64,
-        };
-        for (_, k) in &kept {
-            out.positions
-                .extend_from_slice(&batch.positions[k * words..(k + 1) * words]);
-            out.colors.push(batch.colors[*k]);
-        }
-        messages.push(out);
+    if n == 0 || first + n <= capacity {
+        return vec![batch];
     }
-    for m in messages {
+    let words = batch.positions.len() / batch.colors.len().max(1);
+    let inside = capacity.saturating_sub(first) as usize;
+    let mut out = Vec::with_capacity(2);
+    if inside > 0 {
+        out.push(EncodedPoints {
+            first,
+            slots: None,
+            positions: batch.positions[..inside * words].to_vec(),
+            colors: batch.colors[..inside].to_vec(),
+            staged: None,
+            read: inside as u64,
+        });
+    }
+    // (slot, last-to-first index) keys: sorted, the first key of each slot is the batch's
+    // last point that picked it, which must win (a later point replaces an earlier one).
+    let mut keys: Vec<u64> = (inside..batch.colors.len())
+        .into_par_iter()
+        .filter_map(|k| {
+            let slot = job.reservoir.slot(first + k as u64)?;
+            Some(slot << 32 | u64::from(u32::MAX - k as u32))
+        })
+        .collect();
+    keys.par_sort_unstable();
+    keys.dedup_by_key(|key| *key >> 32);
+    let index = |key: u64| (u32::MAX - key as u32) as usize;
+    let mut positions = vec![0u32; keys.len() * words];
+    if words > 0 {
+        positions
+            .par_chunks_mut(words)
+            .zip(keys.par_iter())
+            .for_each(|(p, &key)| {
+                let k = index(key);
+                p.copy_from_slice(&batch.positions[k * words..(k + 1) * words]);
+            });
+    }
+    out.push(EncodedPoints {
+        first: first + inside as u64,
+        slots: Some(keys.iter().map(|key| (key >> 32) as u32).collect()),
+        positions,
+        colors: keys
+            .par_iter()
+            .map(|&key| batch.colors[index(key)])
+            .collect(),
+        staged: None,
+        read: n - inside as u64,
+    });
+    out
+}
+
+/// Hands batches to the render thread, waiting while the queue is full.
+fn send(job: &Job, batches: Vec<EncodedPoints>) -> Result<(), Stop> {
+    for m in batches {
+        if m.read == 0 {
+            continue;
+        }
         job.shared.loaded.fetch_add(m.read, Ordering::Relaxed);
         job.queue
             .send(Message::Batch(m))

@@ -7,7 +7,7 @@ mod common;
 use common::context;
 
 use pointlet_core::color::{point_color, ColorMode};
-use pointlet_core::progressive::ShufflePermutation;
+use pointlet_core::progressive::{Reservoir, ShufflePermutation};
 use pointlet_engine::progressive::{
     LoadConfig, LoadProgress, LoadState, ProgressiveLoad, Uploaded,
 };
@@ -192,6 +192,54 @@ fn a_generated_las_lands_where_the_cpu_permutation_puts_it() {
     assert_eq!(load.total(), 300_000);
     let color = load.color().unwrap();
     assert_eq!(color.default.map(|d| d.mode), Some(ColorMode::Rgb));
+}
+
+#[test]
+fn a_file_beyond_the_slots_keeps_the_reservoirs_points_the_later_winning() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = generated_las(dir.path(), 300_000);
+    let mut gpu = Gpu::new();
+    let config = LoadConfig {
+        batch_points: 100_000,
+        max_slots: 50_000,
+        ..Default::default()
+    };
+    let seed = config.seed;
+    let mut load = ProgressiveLoad::start(&path, config).unwrap();
+    assert_eq!((load.slots(), load.total()), (50_000, 300_000));
+    let dst = ShuffledBuffer::new(&gpu.ctx, PointEncoding::Full16, 50_000).unwrap();
+    let failures = gpu.upload_all(&mut load, &dst);
+    assert!(failures.is_empty(), "{failures:?}");
+    assert_complete(&load.progress());
+
+    // Each point replaces its reservoir slot's point in file order: about 90 000 picks of
+    // 50 000 slots past the first fill, so slots picked twice within one batch abound.
+    let scale = load.color().unwrap().scale;
+    let reservoir = Reservoir::new(50_000, seed).unwrap();
+    let mut want = ShuffledContents {
+        positions: vec![0; 50_000 * 3],
+        fine: Vec::new(),
+        colors: vec![0; 50_000],
+    };
+    let mut r = pointlet_io::open(&path).unwrap();
+    let (mut i, mut picks) = (0u64, 0u64);
+    while let Some(b) = r.read_batch(7_000).unwrap() {
+        for k in 0..b.len() {
+            if let Some(t) = reservoir.slot(i) {
+                let t = t as usize;
+                let words = encode_point(b.xyz[k], load.origin(), [1.0; 3], PointEncoding::Full16);
+                want.positions[t * 3..t * 3 + 3].copy_from_slice(&words);
+                want.colors[t] = point_color(&b, k, &scale);
+                picks += u64::from(i >= 50_000);
+            }
+            i += 1;
+        }
+    }
+    assert!(picks > 60_000, "{picks} picks past the capacity");
+    assert!(
+        dst.read(&gpu.ctx).unwrap() == want,
+        "the buffer differs from the reservoir's"
+    );
 }
 
 /// Distance between two floats in f32 steps at the larger of their magnitudes and `at`.

@@ -5,7 +5,8 @@
 // Follows the progressive-rendering paper (Schütz et al.), §3.1 (Distribute buffer into the
 // shuffled vertex buffer) and §3.3, eq. 1 (permute) and eq. 2 (target = permute ∘ permute),
 // with P the largest prime ≡ 3 (mod 4) not above the buffer's size (0: identity).
-// WGSL has only 32-bit integers, so i² mod P is computed by doubling-and-adding mod P.
+// WGSL has only 32-bit integers, so i² mod P is a Montgomery product (REDC with R = 2^32) of
+// 16-bit partial products: straight-line code, no loop over the bits.
 // Two variations: `given_slots` takes each point's slot from src_slots instead (points past the
 // capacity of a buffer that keeps a uniform subset, core::progressive::Reservoir), and
 // `colors_only` rewrites only the colours (attribute switching, paper §3.5). With `quantized`
@@ -29,7 +30,12 @@ struct Shuffle {
     given_slots: u32,
     colors_only: u32,
     quantized: u32,
-    _pad: u32,
+    // Montgomery constants of prime (R = 2^32): -prime⁻¹ mod R and R² mod prime.
+    neg_inv: u32,
+    r2: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
     // Dequantization (quantized only): the grid point nearest the origin, the step split in
     // a high and a low f32 (their sum is the f64 step to 48 bits), the origin's distance from
     // base.
@@ -48,40 +54,56 @@ struct Shuffle {
 @group(0) @binding(6) var<storage, read_write> dst_colors: array<u32>;
 @group(0) @binding(7) var<storage, read> src_slots: array<u32>;
 
-// (a + b) mod p for a, b < p: a wrapped sum is ≥ 2^32 > p, and subtracting p wraps it back.
-fn add_mod(a: u32, b: u32, p: u32) -> u32 {
-    let s = a + b;
-    if s < a || s >= p {
-        return s - p;
-    }
-    return s;
+// An odd modulus p < 2^32 with its Montgomery constants (R = 2^32), computed on the CPU.
+struct Modulus {
+    p: u32,
+    // -p⁻¹ mod R.
+    neg_inv: u32,
+    // R² mod p.
+    r2: u32,
 }
 
-// (a · b) mod p for a, b < p < 2^32, exactly: Horner over the bits of b, doubling mod p.
-fn mul_mod(a: u32, b: u32, p: u32) -> u32 {
-    if b == 0u {
-        return 0u;
+// The high 32 bits of a · b, from 16-bit halves.
+fn mul_hi(a: u32, b: u32) -> u32 {
+    let a0 = a & 0xffffu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xffffu;
+    let b1 = b >> 16u;
+    let cross0 = a0 * b1;
+    let cross1 = a1 * b0;
+    let mid = ((a0 * b0) >> 16u) + (cross0 & 0xffffu) + (cross1 & 0xffffu);
+    return a1 * b1 + (cross0 >> 16u) + (cross1 >> 16u) + (mid >> 16u);
+}
+
+// a · b · R⁻¹ mod p for a, b < p (REDC): adding m · p, m = lo · (-p⁻¹), clears the low word
+// of the product, which leaves a carry exactly when that word is not 0. The sum is below 2p,
+// which may pass 2^32 when p > 2^31: a wrapped sum is reduced too.
+fn mont_mul(a: u32, b: u32, m: Modulus) -> u32 {
+    let lo = a * b;
+    let hi = mul_hi(a, b);
+    let s = hi + mul_hi(lo * m.neg_inv, m.p);
+    let t = s + select(0u, 1u, lo != 0u);
+    if s < hi || t < s || t >= m.p {
+        return t - m.p;
     }
-    var r = 0u;
-    for (var bit = 31 - i32(countLeadingZeros(b)); bit >= 0; bit--) {
-        r = add_mod(r, r, p);
-        if ((b >> u32(bit)) & 1u) != 0u {
-            r = add_mod(r, a, p);
-        }
-    }
-    return r;
+    return t;
+}
+
+// (a · b) mod p for a, b < p: (a·b·R⁻¹) · R² · R⁻¹.
+fn mul_mod(a: u32, b: u32, m: Modulus) -> u32 {
+    return mont_mul(mont_mul(a, b, m), m.r2, m);
 }
 
 // Eq. 1: squares for the lower half, their negatives for the upper half; i ≥ p stays.
-fn permute(i: u32, p: u32) -> u32 {
-    if i >= p {
+fn permute(i: u32, m: Modulus) -> u32 {
+    if i >= m.p {
         return i;
     }
-    let square = mul_mod(i, i, p);
-    if i <= p / 2u {
+    let square = mul_mod(i, i, m);
+    if i <= m.p / 2u {
         return square;
     }
-    return p - square;
+    return m.p - square;
 }
 
 // Axis a of a stored position relative to the origin, within about an ulp of the f64 result.
@@ -104,8 +126,8 @@ fn dequantize(q: i32, a: u32) -> f32 {
 }
 
 // Eq. 2: one pass of eq. 1 leaves visible runs (paper Fig. 4), two do not.
-fn shuffle_target(i: u32, p: u32) -> u32 {
-    return permute(permute(i, p), p);
+fn shuffle_target(i: u32, m: Modulus) -> u32 {
+    return permute(permute(i, m), m);
 }
 
 @compute @workgroup_size(256)
@@ -122,7 +144,7 @@ fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
         if shuffle.first + j >= shuffle.n {
             return;
         }
-        t = shuffle_target(shuffle.first + j, shuffle.prime);
+        t = shuffle_target(shuffle.first + j, Modulus(shuffle.prime, shuffle.neg_inv, shuffle.r2));
     }
     if t >= shuffle.n || t < shuffle.first_slot || t - shuffle.first_slot >= shuffle.slots {
         return;

@@ -453,8 +453,25 @@ struct ShuffleUniform {
     explicit: u32,
     colors_only: u32,
     quantized: u32,
-    _pad: u32,
+    neg_inv: u32,
+    r2: u32,
+    _pad: [u32; 3],
     dequantize: DequantizeUniform,
+}
+
+/// The Montgomery constants (R = 2^32) of an odd modulus p < 2^32 that shuffle.wgsl's
+/// `Modulus` takes: -p⁻¹ mod R and R² mod p; (0, 0) for an even p (0: no permutation).
+pub fn montgomery_constants(p: u32) -> (u32, u32) {
+    if p.is_multiple_of(2) {
+        return (0, 0);
+    }
+    // Newton's iteration doubles the correct low bits of p⁻¹ mod 2^32: p·p ≡ 1 mod 8 holds.
+    let mut inv = p;
+    for _ in 0..4 {
+        inv = inv.wrapping_mul(2u32.wrapping_sub(p.wrapping_mul(inv)));
+    }
+    let r2 = ((1u128 << 64) % u128::from(p)) as u32;
+    (inv.wrapping_neg(), r2)
 }
 
 /// The staging streams, grown on demand.
@@ -639,6 +656,7 @@ impl ShufflePass {
             q.write_buffer(&staging.slots, 0, bytemuck::cast_slice(s));
         }
         let layout = self.pipeline.get_bind_group_layout(0);
+        let (neg_inv, r2) = montgomery_constants(dst.permutation.prime() as u32);
         ctx.checked("recording the shuffle pass", || {
             // One uniform and bind group per destination chunk: each dispatch sees its own.
             let groups: Vec<wgpu::BindGroup> = dst
@@ -657,7 +675,9 @@ impl ShufflePass {
                         explicit: slots.is_some() as u32,
                         colors_only: colors_only as u32,
                         quantized: dequantize.is_some() as u32,
-                        _pad: 0,
+                        neg_inv,
+                        r2,
+                        _pad: [0; 3],
                         dequantize: dequantize.map(|d| d.uniform()).unwrap_or_default(),
                     };
                     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -747,4 +767,20 @@ fn staging_for<'s>(
         }
     };
     Ok(slot.insert(grown))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::montgomery_constants;
+
+    #[test]
+    fn montgomery_constants_invert_and_square_r() {
+        for p in [3u32, 7, 65_519, 2_147_483_647, 4_294_967_291, 4_294_967_279] {
+            let (neg_inv, r2) = montgomery_constants(p);
+            assert_eq!(p.wrapping_mul(neg_inv), u32::MAX, "-p⁻¹ for {p}");
+            let r = (1u128 << 32) % u128::from(p);
+            assert_eq!(u128::from(r2), r * r % u128::from(p), "R² for {p}");
+        }
+        assert_eq!(montgomery_constants(0), (0, 0));
+    }
 }

@@ -8,7 +8,8 @@ mod common;
 use pointlet_core::progressive::{prime_3_mod_4_at_most, ShufflePermutation};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
-    Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents, StagedBatch,
+    montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents,
+    StagedBatch,
 };
 use pointlet_gpu::{encode_point, GpuContext, GpuError, PointEncoding};
 
@@ -273,10 +274,20 @@ fn malformed_batches_are_refused() {
     assert!(pass.scatter(&ctx, &dst, 90, batch(&words, &[])).is_ok());
 }
 
-/// A kernel calling shuffle.wgsl's arithmetic on given operands: (a, b, p, i) →
-/// (a·b mod p, target(i) under p).
+/// A kernel calling shuffle.wgsl's arithmetic on given operands: (a, b, p, i) with p's
+/// Montgomery constants → (a·b mod p, target(i) under p).
 const CHECK_KERNEL: &str = "
-@group(0) @binding(10) var<storage, read> cases: array<vec4<u32>>;
+struct Case {
+    a: u32,
+    b: u32,
+    p: u32,
+    i: u32,
+    neg_inv: u32,
+    r2: u32,
+    pad0: u32,
+    pad1: u32,
+}
+@group(0) @binding(10) var<storage, read> cases: array<Case>;
 @group(0) @binding(11) var<storage, read_write> results: array<vec2<u32>>;
 
 @compute @workgroup_size(64)
@@ -285,11 +296,12 @@ fn check(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let c = cases[gid.x];
-    results[gid.x] = vec2<u32>(mul_mod(c.x, c.y, c.z), shuffle_target(c.w, c.z));
+    let m = Modulus(c.p, c.neg_inv, c.r2);
+    results[gid.x] = vec2<u32>(mul_mod(c.a, c.b, m), shuffle_target(c.i, m));
 }
 ";
 
-fn run_check_kernel(ctx: &GpuContext, cases: &[[u32; 4]]) -> Vec<[u32; 2]> {
+fn run_check_kernel(ctx: &GpuContext, cases: &[[u32; 8]]) -> Vec<[u32; 2]> {
     let device = &ctx.device;
     let source = format!(
         "{}\n{CHECK_KERNEL}",
@@ -316,7 +328,7 @@ fn run_check_kernel(ctx: &GpuContext, cases: &[[u32; 4]]) -> Vec<[u32; 2]> {
         })
     };
     let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-    let input = buffer(cases.len() as u64 * 16, storage);
+    let input = buffer(cases.len() as u64 * 32, storage);
     let result_bytes = cases.len() as u64 * 8;
     let output = buffer(result_bytes, storage | wgpu::BufferUsages::COPY_SRC);
     let readback = buffer(
@@ -370,16 +382,17 @@ fn shader_arithmetic_is_exact_for_primes_near_2_32() {
         operands.extend([65_535, 65_536, 65_537, (1 << 31) - 1, 1 << 31]);
         operands.extend((0..8).map(|_| rng.below(p)));
         operands.retain(|&v| v < p);
+        let (neg_inv, r2) = montgomery_constants(p as u32);
         for &a in &operands {
             for &b in &operands {
-                cases.push([a as u32, b as u32, p as u32, b as u32]);
+                cases.push([a as u32, b as u32, p as u32, b as u32, neg_inv, r2, 0, 0]);
             }
         }
     }
     let results = run_check_kernel(&ctx, &cases);
     assert_eq!(results.len(), cases.len());
     for (c, r) in cases.iter().zip(&results) {
-        let [a, b, p, i] = c.map(u64::from);
+        let [a, b, p, i, ..] = c.map(u64::from);
         let perm = ShufflePermutation::new(p).unwrap();
         assert_eq!(perm.prime(), p);
         let product = ((a as u128 * b as u128) % p as u128) as u64;
