@@ -122,6 +122,7 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
     let mut out = Run {
         records: Vec::with_capacity(n * rb),
         pairs: (0..n as u32).map(|i| (0, i)).collect(),
+        scratch: Vec::new(),
     };
     let mut buf = vec![0u8; (chunk_bytes / entry).max(1) * entry];
     let mut left = n;
@@ -143,14 +144,17 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
 pub(crate) struct Run {
     pub records: Vec<u8>,
     pub pairs: Vec<(u64, u32)>,
+    /// The radix pass's second array, kept from one spill to the next.
+    pub scratch: Vec<(u64, u32)>,
 }
 
 type SpillResult = Result<(RunFile, Run), StoreError>;
 
-/// Runs sorted and written at once, each to its own file. Three at once (smaller runs, files
-/// written in parallel) measured no faster than one on either machine (docs/BENCHMARKS.md),
-/// so one run spills while the next fills.
-pub(crate) const SPILLERS: usize = 1;
+/// Runs sorted and written at once, each to its own file, while the next fills. With one,
+/// filling waited 3.2–3.6 s of a 200 M-point build's 5.0–5.6 s reading stage for the spiller
+/// (sort, then gather and write, one run after another); with two, 1.2–1.4 s of 3.9–4.2 s,
+/// and three were no faster (GPU machine, docs/BENCHMARKS.md).
+pub(crate) const SPILLERS: usize = 2;
 
 /// A run to spill, and where to send the result.
 type SpillJob = (PathBuf, Run, SyncSender<SpillResult>);
@@ -175,7 +179,7 @@ impl Spiller {
                     let Ok(Ok((path, mut run, reply))) = job else {
                         return;
                     };
-                    crate::sort::sort_pairs(&mut run.pairs);
+                    crate::sort::sort_pairs_with(&mut run.pairs, &mut run.scratch);
                     let result =
                         write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
                             run.records.clear();

@@ -126,9 +126,13 @@ pub(crate) fn sort_buckets(pairs: &mut [Pair], buckets: &Buckets, range: std::op
 /// do: index i at position i), which lets equal keys keep their order instead of comparing
 /// indices.
 pub(crate) fn sort_pairs(pairs: &mut Vec<Pair>) {
-    let mut scratch = Vec::new();
-    let buckets = partition(pairs, &mut scratch);
-    drop(scratch);
+    sort_pairs_with(pairs, &mut Vec::new());
+}
+
+/// [`sort_pairs`] with the radix pass's second array given (and kept: a run spilled after
+/// another reuses it instead of faulting in fresh pages).
+pub(crate) fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
+    let buckets = partition(pairs, scratch);
     sort_buckets(pairs, &buckets, 0..buckets.len());
 }
 
