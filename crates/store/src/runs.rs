@@ -151,7 +151,7 @@ pub(crate) struct Run {
 type SpillResult = Result<(RunFile, Run), StoreError>;
 
 /// Runs sorted and written at once, each to its own file, while the next fills. With one,
-/// filling waited 3.2–3.6 s of a 200 M-point build's 5.0–5.6 s reading stage for the spiller
+/// filling waited 3.2–3.6 s of a 200 M-point build's 4.9–5.6 s reading stage for the spiller
 /// (sort, then gather and write, one run after another); with two, 1.2–1.4 s of 3.9–4.2 s,
 /// and three were no faster (GPU machine, docs/BENCHMARKS.md).
 pub(crate) const SPILLERS: usize = 2;
