@@ -73,6 +73,9 @@ timed() { # NAME COMMAND...: the command's output, then time -v's report, into $
   local name=$1
   shift
   runs+=("$name")
+  # Every run starts with the disk idle: the last run's store (or the inputs just generated)
+  # still being written back slowed the next run's writes 1.3-1.6x (docs/BENCHMARKS.md).
+  sync
   if ! /usr/bin/time -v -a -o "$out/$name.txt" "$@" >"$out/$name.txt" 2>&1; then
     tail -n 30 "$out/$name.txt" >&2
     echo "$name failed (see $out/$name.txt)" >&2

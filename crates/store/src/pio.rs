@@ -103,6 +103,29 @@ fn reserve(file: &File, len: u64) -> io::Result<bool> {
     Ok(false)
 }
 
+/// Gives back the whole pages of bytes `offset..offset + len` of a temporary file that nobody
+/// reads again (best effort: file systems without hole punching keep them until removal).
+pub fn release(file: &File, offset: u64, len: u64) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::io::AsRawFd;
+        const PAGE: u64 = 4096;
+        let (from, to) = (offset.div_ceil(PAGE) * PAGE, (offset + len) / PAGE * PAGE);
+        if let (Ok(at), Ok(n)) = (
+            libc::off_t::try_from(from),
+            libc::off_t::try_from(to.saturating_sub(from)),
+        ) {
+            if n > 0 {
+                let mode = libc::FALLOC_FL_PUNCH_HOLE | libc::FALLOC_FL_KEEP_SIZE;
+                // SAFETY: a plain system call on a descriptor this `File` owns; a failure only
+                // leaves the pages in place.
+                let _ = unsafe { libc::fallocate(file.as_raw_fd(), mode, at, n) };
+            }
+        }
+    }
+    let _ = (file, offset, len);
+}
+
 /// Frees a large vector on every thread: its pages go back to the kernel in parallel pieces,
 /// where one thread freeing gigabytes at once takes a large share of a second.
 pub fn discard<T: Copy + Send>(v: Vec<T>) {
@@ -126,4 +149,36 @@ pub fn discard<T: Copy + Send>(v: Vec<T>) {
         }
     }
     drop(v);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Read, Seek, SeekFrom, Write};
+
+    #[test]
+    fn release_frees_only_whole_pages_inside_the_range() -> io::Result<()> {
+        let dir = tempfile::tempdir()?;
+        let path = dir.path().join("run");
+        let data: Vec<u8> = (0..5 * 4096u32).map(|i| (i % 251 + 1) as u8).collect();
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(true)
+            .read(true)
+            .write(true)
+            .open(&path)?;
+        file.write_all(&data)?;
+        // Bytes 100..4096·3+50: only pages 1 and 2 lie wholly inside.
+        release(&file, 100, 4096 * 3 - 50);
+        let mut back = Vec::new();
+        file.seek(SeekFrom::Start(0))?;
+        file.read_to_end(&mut back)?;
+        assert_eq!(back.len(), data.len());
+        assert_eq!(back[..4096], data[..4096]);
+        assert_eq!(back[3 * 4096..], data[3 * 4096..]);
+        // Where the file system punches holes, the freed pages read as zeros.
+        let middle = &back[4096..3 * 4096];
+        assert!(middle == &data[4096..3 * 4096] || middle.iter().all(|&b| b == 0));
+        Ok(())
+    }
 }

@@ -282,6 +282,9 @@ impl<'a> Cursor<'a> {
         let at = self.next * self.entry as u64;
         crate::pio::read_exact_at(self.slice.file, &mut self.buf[..bytes], at)
             .map_err(|e| StoreError::io(&self.slice.run.path, "reading a temporary run file", e))?;
+        // Each entry is read once: its pages are freed now, on the merging threads, rather
+        // than all at once when the runs are removed (1–4 s for 9 GB of runs on one build).
+        crate::pio::release(self.slice.file, at, bytes as u64);
         self.pos = 0;
         self.end = bytes;
         self.next += n as u64;
@@ -340,11 +343,14 @@ pub(crate) fn merge(
     Ok(count)
 }
 
-/// Opens every run for positioned reads.
+/// Opens every run for positioned reads (and writable: the merge frees what it has read).
 pub(crate) fn open_runs(runs: &[RunFile]) -> Result<Vec<File>, StoreError> {
     runs.iter()
         .map(|r| {
-            File::open(&r.path)
+            OpenOptions::new()
+                .read(true)
+                .write(true)
+                .open(&r.path)
                 .map_err(|e| StoreError::io(&r.path, "opening a temporary run file", e))
         })
         .collect()

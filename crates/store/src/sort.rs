@@ -9,10 +9,22 @@ use rayon::prelude::*;
 /// A (Hilbert key, input index) pair; pairs are unique, so any correct sort gives one order.
 pub(crate) type Pair = (u64, u32);
 
-/// Bits of the radix pass: 2^16 buckets of a few thousand pairs each sort inside the L2 cache.
+/// Most bits of the radix pass: 2^16 buckets of a few thousand pairs each sort inside the L2
+/// cache.
 const RADIX_BITS: u32 = 16;
 /// Below this, one sort of the whole slice beats the radix pass.
 const SMALL: usize = 1 << 16;
+
+/// Bits of the radix pass for `n` pairs: buckets of ~[`BUCKET_PAIRS`] on average, at most
+/// [`RADIX_BITS`]. A spilled run of a few million pairs in 2^16 buckets spent most of its sort
+/// on per-chunk bucket tables and the serial sum over them.
+fn radix_bits(n: usize) -> u32 {
+    let buckets = (n / BUCKET_PAIRS).max(2);
+    (usize::BITS - 1 - buckets.leading_zeros()).min(RADIX_BITS)
+}
+
+/// Pairs per bucket the radix pass aims at.
+const BUCKET_PAIRS: usize = 4096;
 
 /// Bucket boundaries: bucket `b` is `pairs[starts[b]..starts[b + 1]]`.
 pub(crate) struct Buckets {
@@ -45,7 +57,7 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     if varying == 0 {
         return Buckets { starts: vec![0, n] };
     }
-    let bits = varying.min(RADIX_BITS);
+    let bits = varying.min(radix_bits(n));
     let shift = varying - bits;
     let base = min >> shift;
     let nb = ((max >> shift) - base + 1) as usize;
@@ -151,6 +163,15 @@ mod tests {
         want.sort_unstable();
         sort_pairs(&mut pairs);
         assert_eq!(pairs, want);
+    }
+
+    #[test]
+    fn buckets_hold_a_few_thousand_pairs() {
+        assert_eq!(radix_bits(0), 1);
+        assert_eq!(radix_bits(SMALL), 4);
+        assert_eq!(radix_bits(5_500_000), 10);
+        assert_eq!(radix_bits(200_000_000), 15);
+        assert_eq!(radix_bits(usize::MAX), RADIX_BITS);
     }
 
     #[test]
