@@ -67,4 +67,12 @@ pub trait PartedSource: Sync {
     ) -> Result<(), PartError> {
         self.decode_part_for(i, out, scratch, mode)
     }
+
+    /// `Some(k)` when the points come in groups of k (a power of two; the last group may be
+    /// shorter), each group in random order, so that the first points of a group are a uniform
+    /// sample of it: a store's pointlets. A progressive loader may then interleave the groups
+    /// instead of permuting every point ([`crate::progressive::GroupInterleave`]).
+    fn shuffled_groups(&self) -> Option<u64> {
+        None
+    }
 }

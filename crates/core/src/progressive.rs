@@ -14,6 +14,8 @@ pub const MAX_SLOTS: u64 = 1 << 32;
 pub enum ShuffleError {
     #[error("a shuffled buffer of {n} slots exceeds the limit of {MAX_SLOTS} (2^32) slots")]
     TooManySlots { n: u64 },
+    #[error("groups of {group} points cannot be interleaved: the size must be a power of two")]
+    GroupSize { group: u64 },
 }
 
 /// The permutation of a buffer of `n` slots: slots `0..P` are permuted by applying eq. 1
@@ -68,6 +70,137 @@ impl ShufflePermutation {
     /// Eq. 2: the slot point `i` goes to; one pass of eq. 1 leaves visible runs (paper Fig. 4).
     pub fn target(&self, i: u64) -> u64 {
         self.permute(self.permute(i))
+    }
+}
+
+/// The slots of a file whose points come in groups of `2^shift`, each group already in random
+/// order (a store's pointlets, shuffled when the store was built): point j of every group
+/// comes before point j + 1 of any (rows of one point per group), so every run of whole rows
+/// holds the first points of every group loaded so far, a stratified uniform subsample. Within
+/// a row, blocks of up to 64 neighbouring groups are permuted (eq. 1–2 over the blocks), so
+/// that a prefix ending inside a row still spreads over the whole file, while a batch of whole
+/// groups lands in runs of neighbouring slots (a block each) instead of all over the buffer.
+/// The last group may be short: rows past its size skip it, so `n` points fill exactly `n`
+/// slots; columns past the last whole block of the shorter rows stay in place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupInterleave {
+    n: u64,
+    shift: u32,
+    /// Groups (the last one may be short).
+    groups: u64,
+    /// Rows that include the last group: its size.
+    full_rows: u64,
+    /// log2 of the groups in a block, and the permutation of the whole blocks of a row.
+    block_shift: u32,
+    blocks: ShufflePermutation,
+}
+
+/// Most groups in a block, and fewest blocks in a row the block size aims at.
+const MAX_BLOCK: u64 = 64;
+const MIN_BLOCKS: u64 = 1024;
+
+impl GroupInterleave {
+    /// `n` points in groups of `group` (a power of two) points.
+    pub fn new(n: u64, group: u64) -> Result<Self, ShuffleError> {
+        if n > MAX_SLOTS {
+            return Err(ShuffleError::TooManySlots { n });
+        }
+        if !group.is_power_of_two() {
+            return Err(ShuffleError::GroupSize { group });
+        }
+        let groups = n.div_ceil(group);
+        // Blocks as large as keep a thousand of them in a row: small stores permute groups.
+        let block = (groups / MIN_BLOCKS).clamp(1, MAX_BLOCK);
+        let block_shift = block.ilog2();
+        let short_row = groups.saturating_sub(1);
+        Ok(Self {
+            n,
+            shift: group.trailing_zeros(),
+            groups,
+            full_rows: n - short_row * group,
+            block_shift,
+            blocks: ShufflePermutation::new(short_row >> block_shift)?,
+        })
+    }
+
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// log2 of the group size.
+    pub fn shift(&self) -> u32 {
+        self.shift
+    }
+
+    pub fn groups(&self) -> u64 {
+        self.groups
+    }
+
+    /// Rows with a point of every group, the last one included (the last group's size).
+    pub fn full_rows(&self) -> u64 {
+        self.full_rows
+    }
+
+    /// log2 of the groups in a block.
+    pub fn block_shift(&self) -> u32 {
+        self.block_shift
+    }
+
+    /// The permutation of the whole blocks of a row.
+    pub fn blocks(&self) -> ShufflePermutation {
+        self.blocks
+    }
+
+    /// The slot of point `i` (< n): row `i mod group`, column its group's (its block moved).
+    pub fn target(&self, i: u64) -> u64 {
+        let (row, group) = (i & ((1 << self.shift) - 1), i >> self.shift);
+        let block = group >> self.block_shift;
+        let column = if block < self.blocks.len() {
+            let within = group & ((1 << self.block_shift) - 1);
+            self.blocks.target(block) << self.block_shift | within
+        } else {
+            group
+        };
+        if row < self.full_rows {
+            row * self.groups + column
+        } else {
+            self.full_rows * self.groups + (row - self.full_rows) * (self.groups - 1) + column
+        }
+    }
+}
+
+/// Where the points of a file go in its shuffled buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotOrder {
+    /// Any file: the paper's prime-number permutation (eq. 1–2).
+    Permuted(ShufflePermutation),
+    /// Files of groups each in random order already (stores): the groups interleaved.
+    Interleaved(GroupInterleave),
+}
+
+impl SlotOrder {
+    /// Points the order places (those past a smaller buffer's slots are left out).
+    pub fn len(&self) -> u64 {
+        match self {
+            Self::Permuted(p) => p.len(),
+            Self::Interleaved(g) => g.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The slot of point `i`.
+    pub fn target(&self, i: u64) -> u64 {
+        match self {
+            Self::Permuted(p) => p.target(i),
+            Self::Interleaved(g) => g.target(i),
+        }
     }
 }
 
@@ -179,18 +312,26 @@ fn pow_mod(mut base: u64, mut exp: u64, m: u64) -> u64 {
 mod tests {
     use super::*;
 
-    /// Slot → point of a buffer filled by `target`, checking along the way that no slot is
+    /// Slot → point of a buffer filled by `order`, checking along the way that no slot is
     /// hit twice or lies outside the buffer.
-    fn placement(perm: &ShufflePermutation) -> Vec<u32> {
-        let n = perm.len() as usize;
+    fn filled(order: SlotOrder) -> Vec<u32> {
+        let n = order.len() as usize;
         let mut slots = vec![u32::MAX; n];
         for i in 0..n {
-            let t = perm.target(i as u64);
-            assert!(t < n as u64, "n {n}: point {i} goes to slot {t}");
-            assert_eq!(slots[t as usize], u32::MAX, "n {n}: slot {t} hit twice");
+            let t = order.target(i as u64);
+            assert!(t < n as u64, "{order:?}: point {i} goes to slot {t}");
+            assert_eq!(slots[t as usize], u32::MAX, "{order:?}: slot {t} hit twice");
             slots[t as usize] = i as u32;
         }
         slots
+    }
+
+    fn placement(perm: &ShufflePermutation) -> Vec<u32> {
+        filled(SlotOrder::Permuted(*perm))
+    }
+
+    fn interleaved(order: &GroupInterleave) -> Vec<u32> {
+        filled(SlotOrder::Interleaved(*order))
     }
 
     #[test]
@@ -357,5 +498,97 @@ mod tests {
                 "unshuffled {percent} % prefix: χ² = {control}"
             );
         }
+    }
+
+    #[test]
+    fn interleaved_groups_are_bijections_for_every_size() {
+        for group in [1u64, 2, 8, 64] {
+            for n in 0..=3_000u64 {
+                interleaved(&GroupInterleave::new(n, group).unwrap());
+            }
+        }
+        for (n, group) in [(1_000_003u64, 4096u64), (1 << 22, 1024), (65_537, 65_536)] {
+            interleaved(&GroupInterleave::new(n, group).unwrap());
+        }
+        assert_eq!(
+            GroupInterleave::new(100, 48),
+            Err(ShuffleError::GroupSize { group: 48 })
+        );
+        assert_eq!(
+            GroupInterleave::new(MAX_SLOTS + 1, 1024),
+            Err(ShuffleError::TooManySlots { n: MAX_SLOTS + 1 })
+        );
+    }
+
+    #[test]
+    fn whole_blocks_of_groups_land_in_one_run_per_row() {
+        // 8 192 groups of 64 points, the last one short: blocks of 8 groups, 1 023 of them
+        // permuted in each row (the shorter rows have 8 191 columns).
+        let order = GroupInterleave::new(64 * 8191 + 17, 64).unwrap();
+        assert_eq!((order.groups(), order.full_rows()), (8192, 17));
+        assert_eq!((order.block_shift(), order.blocks().len()), (3, 1023));
+        let mut starts = Vec::new();
+        for row in 0..64u64 {
+            // Groups 40..48 are block 5: one run of 8 slots wherever the block went.
+            let slots: Vec<u64> = (40..48).map(|g| order.target(g * 64 + row)).collect();
+            let start = slots[0];
+            assert_eq!(slots, (start..start + 8).collect::<Vec<_>>(), "row {row}");
+            starts.push(start - order.target(row));
+        }
+        // The block moved, to the same column in every row.
+        assert!(starts.iter().all(|&s| s == starts[0] && s != 40));
+        // Small files permute single groups.
+        assert_eq!(GroupInterleave::new(64 * 40, 64).unwrap().block_shift(), 0);
+    }
+
+    #[test]
+    fn prefixes_of_interleaved_shuffled_groups_of_a_sorted_grid_are_uniform() {
+        // The grid scanned row by row, cut into groups of 4096 points (four grid rows), each
+        // group shuffled as a store shuffles its pointlets.
+        let side = 1024u32;
+        let n = (side * side) as u64;
+        let group = 4096usize;
+        let mut points: Vec<u32> = (0..n as u32).collect();
+        for (k, g) in points.chunks_mut(group).enumerate() {
+            crate::shuffle::shuffle(g, k as u64);
+        }
+        let order = GroupInterleave::new(n, group as u64).unwrap();
+        let slots = interleaved(&order);
+        let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();
+        for percent in [1, 5, 25] {
+            let k = (n * percent / 100) as usize;
+            let chi = chi_square(&buffer[..k], side);
+            assert!(chi < CHI2_255_AT_0_001, "{percent} % prefix: χ² = {chi}");
+        }
+        // Without the shuffle inside groups, prefixes hold the groups' first grid rows only.
+        let control = chi_square(&slots[..(n / 100) as usize], side);
+        assert!(control > CHI2_255_AT_0_001, "control: χ² = {control}");
+    }
+
+    #[test]
+    fn prefixes_ending_inside_a_row_spread_over_the_whole_file() {
+        // Groups of 64 points, 16 to a grid row: 16 384 groups in blocks of 16 (one grid
+        // row each), 1 023 blocks permuted in a row. Half a row of slots and a prefix of
+        // 1.5 rows must be uniform, which a row of groups in file order is not.
+        let side = 1024u32;
+        let n = (side * side) as u64;
+        let group = 64usize;
+        let mut points: Vec<u32> = (0..n as u32).collect();
+        for (k, g) in points.chunks_mut(group).enumerate() {
+            crate::shuffle::shuffle(g, k as u64 ^ 0x5eed);
+        }
+        let order = GroupInterleave::new(n, group as u64).unwrap();
+        assert_eq!(order.block_shift(), 4);
+        let slots = interleaved(&order);
+        let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();
+        let row = order.groups() as usize;
+        for k in [row / 2, row + row / 2] {
+            let chi = chi_square(&buffer[..k], side);
+            assert!(chi < CHI2_255_AT_0_001, "prefix of {k} slots: χ² = {chi}");
+        }
+        // Groups in file order within a row: the first half row covers the top half only.
+        let unpermuted: Vec<u32> = (0..row / 2).map(|g| points[g * group]).collect();
+        let control = chi_square(&unpermuted, side);
+        assert!(control > CHI2_255_AT_0_001, "control: χ² = {control}");
     }
 }

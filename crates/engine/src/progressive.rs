@@ -5,10 +5,13 @@
 //! buffer at their points' global indices. Encoded batches wait in a bounded queue, so memory
 //! stays bounded whatever the file's size.
 //!
-//! The caller sizes the [`ShuffledBuffer`] to [`ProgressiveLoad::slots`]: the header's point
-//! count, or fewer (`LoadConfig::max_slots`, from the VRAM budget), in which case the buffer
-//! keeps a uniform random subset of the whole file ([`Reservoir`]): the first points go to
-//! their permuted slots, each later one replaces a random slot or is left out. A colours-only
+//! The caller sizes the [`ShuffledBuffer`] to [`ProgressiveLoad::slots`] and gives it
+//! [`ProgressiveLoad::order`]. Slots: the header's point count, or fewer
+//! (`LoadConfig::max_slots`, from the VRAM budget), in which case the buffer keeps a uniform
+//! random subset of the whole file ([`Reservoir`]): the first points go to their permuted
+//! slots, each later one replaces a random slot or is left out. A store's pointlets, shuffled
+//! inside, are interleaved instead of permuted ([`GroupInterleave`]): a batch's points land in
+//! runs of neighbouring slots, and past the slots the first points of every pointlet are kept. A colours-only
 //! load ([`LoadConfig::colors_only`]) reads the file again and rewrites only the colours of the
 //! same slots (attribute switching, paper §3.5).
 
@@ -18,7 +21,7 @@ use pointlet_core::color::{
 };
 use pointlet_core::density::SurfaceDensity;
 use pointlet_core::extra::ExtraAttributes;
-use pointlet_core::progressive::Reservoir;
+use pointlet_core::progressive::{GroupInterleave, Reservoir, ShufflePermutation, SlotOrder};
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_gpu::shuffle::{
     Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
@@ -247,6 +250,7 @@ impl Shared {
 struct Job {
     path: PathBuf,
     total: u64,
+    order: SlotOrder,
     reservoir: Reservoir,
     colors_only: bool,
     extras: ExtraAttributes,
@@ -275,6 +279,7 @@ pub struct ProgressiveLoad {
     bounds: pointlet_core::Aabb,
     total: u64,
     slots: u64,
+    order: SlotOrder,
     colors_only: bool,
     origin: [f64; 3],
     file_bytes: u64,
@@ -317,6 +322,12 @@ impl ProgressiveLoad {
         let slots = total.min(config.max_slots.min(u64::from(u32::MAX)));
         let reservoir = Reservoir::new(slots, config.seed)
             .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?;
+        let order = slot_order(
+            reader.parted().and_then(|p| p.shuffled_groups()),
+            total,
+            slots,
+        )
+        .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?;
         let extras = ExtraAttributes::from_vlrs(&meta.vlrs, usize::from(meta.layout.extra_bytes));
         if let Some(ColorMode::Extra(i)) = asked {
             if usize::from(i) >= extras.attributes.len() {
@@ -353,6 +364,7 @@ impl ProgressiveLoad {
         let job = Job {
             path: path.to_path_buf(),
             total,
+            order,
             reservoir,
             colors_only: config.colors_only,
             extras,
@@ -380,6 +392,7 @@ impl ProgressiveLoad {
             bounds,
             total,
             slots,
+            order,
             colors_only: config.colors_only,
             origin,
             file_bytes,
@@ -432,6 +445,11 @@ impl ProgressiveLoad {
     /// budget's points when the file holds more.
     pub fn slots(&self) -> u64 {
         self.slots
+    }
+
+    /// Where the points go in the buffer: the shuffled buffer must place them so.
+    pub fn order(&self) -> SlotOrder {
+        self.order
     }
 
     pub fn colors_only(&self) -> bool {
@@ -489,13 +507,19 @@ impl ProgressiveLoad {
         dst: &ShuffledBuffer,
         max_batches: usize,
     ) -> Result<Uploaded, EngineError> {
-        if dst.encoding() != PointEncoding::Full16 || dst.permutation().len() != self.slots {
+        if dst.encoding() != PointEncoding::Full16
+            || u64::from(dst.slots()) != self.slots
+            || dst.order() != self.order
+        {
             return Err(EngineError::Config(format!(
-                "{} loads into a full16 shuffled buffer of {} slots, not a {} one of {}",
+                "{} loads into a full16 shuffled buffer of {} slots ({:?}), not a {} one of {} \
+                 ({:?})",
                 self.path.display(),
                 self.slots,
+                self.order,
                 dst.encoding().name(),
-                dst.permutation().len()
+                dst.slots(),
+                dst.order()
             )));
         }
         self.use_device(&ctx.device);
@@ -748,6 +772,29 @@ fn load_parts(parts: &dyn PartedSource, job: &Job) -> Result<(), Stop> {
     })
 }
 
+impl Job {
+    /// Points the buffer's order places (the GPU leaves out those past its slots); the
+    /// reservoir chooses the slots of later ones.
+    fn placed_in_order(&self) -> u64 {
+        match self.order {
+            SlotOrder::Interleaved(_) => self.total,
+            SlotOrder::Permuted(_) => self.reservoir.capacity(),
+        }
+    }
+}
+
+/// The order of a file of `total` points in a buffer of `slots`: a source of shuffled groups
+/// interleaves them (all points placed, those past the slots left out: the first points of
+/// every group, a uniform subset); any other is permuted, the reservoir placing what is past
+/// the slots.
+fn slot_order(groups: Option<u64>, total: u64, slots: u64) -> Result<SlotOrder, String> {
+    match groups {
+        Some(k) => GroupInterleave::new(total, k).map(SlotOrder::Interleaved),
+        None => ShufflePermutation::new(slots).map(SlotOrder::Permuted),
+    }
+    .map_err(|e| e.to_string())
+}
+
 /// Parts that make one batch, and the index of its first point in the file.
 struct PlannedBatch {
     parts: std::ops::Range<usize>,
@@ -777,7 +824,7 @@ fn decode_batch(
         .shared
         .device
         .get()
-        .filter(|_| !job.colors_only && first + points <= job.reservoir.capacity())
+        .filter(|_| !job.colors_only && first + points <= job.placed_in_order())
         .and_then(|device| job.shared.take_staged(device, points));
     let in_memory = if staged.is_some() { 0 } else { points as usize };
     let mut out = EncodedPoints {
@@ -1092,7 +1139,7 @@ fn encode_into(
 /// are, those past it with the slots they replace (on the calling thread, in parallel: this is
 /// a file's whole rest once it outgrows the GPU budget).
 fn split_at_capacity(job: &Job, batch: EncodedPoints) -> Vec<EncodedPoints> {
-    let capacity = job.reservoir.capacity();
+    let capacity = job.placed_in_order();
     let (first, n) = (batch.first, batch.read);
     if n == 0 || first + n <= capacity {
         return vec![batch];

@@ -5,9 +5,10 @@
 //! A still camera converges to exactly the image of drawing every point once S slots summed
 //! over the frames since the camera (or the data) last changed cover the buffer.
 
-use crate::progressive::{LoadColor, LoadConfig, LoadProgress, ProgressiveLoad};
+use crate::progressive::{LoadColor, LoadConfig, LoadProgress, ProgressiveLoad, Uploaded};
 use crate::EngineError;
 use pointlet_core::color::{ColorMode, ColorScale};
+use pointlet_core::progressive::SlotOrder;
 use pointlet_core::{Aabb, Camera};
 use pointlet_gpu::progressive::{
     ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState, ProgressiveTiming,
@@ -18,7 +19,7 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// GPU bytes of one slot of the shuffled buffer (Full16 position + colour).
 pub const SLOT_BYTES: u64 = 16;
@@ -39,8 +40,15 @@ pub struct ProgressiveConfig {
     pub fixed_budget: Option<u64>,
     /// Redraw last frame's points before filling (off: every frame starts empty).
     pub reproject: bool,
-    /// Ready batches scattered per frame at most (bounds a frame's upload work).
+    /// Ready batches scattered per frame whatever they cost.
     pub batches_per_frame: usize,
+    /// Beyond those, a store's batches (interleaved pointlets, which cost the GPU little: the
+    /// render thread's recording is what a frame pays) are scattered while the frame's uploads
+    /// have taken less than this share of `target_frame_ms`, at most `max_batches_per_frame`.
+    /// Not for permuted batches: their writes to random slots cost the GPU ~1 ns a point,
+    /// which this clock does not see.
+    pub upload_share: f64,
+    pub max_batches_per_frame: usize,
 }
 
 impl Default for ProgressiveConfig {
@@ -54,6 +62,8 @@ impl Default for ProgressiveConfig {
             fixed_budget: None,
             reproject: true,
             batches_per_frame: 8,
+            upload_share: 0.25,
+            max_batches_per_frame: 64,
         }
     }
 }
@@ -224,7 +234,8 @@ impl ProgressiveScene {
             ))
         })?;
         let meta_bounds = load.bounds();
-        let cloud = ProgressiveCloud::new(ctx, slots, meta_bounds, config.page_size)?;
+        let mut cloud = ProgressiveCloud::new(ctx, slots, meta_bounds, config.page_size)?;
+        cloud.set_order(load.order())?;
         let shuffle = ShufflePass::new(ctx)?;
         let budget = FillBudget::new(u64::from(slots), config.target_frame_ms);
         Ok(Self {
@@ -401,6 +412,36 @@ impl ProgressiveScene {
         Ok(())
     }
 
+    /// Scatters the batches that are ready: `batches_per_frame`, then more while the frame's
+    /// share of upload time lasts.
+    fn upload(&mut self, ctx: &GpuContext) -> Result<Uploaded, EngineError> {
+        let started = Instant::now();
+        let share = Duration::from_secs_f64(
+            (self.config.target_frame_ms * self.config.upload_share).max(0.0) / 1e3,
+        );
+        let (dst, pass) = (self.cloud.shuffled(), &mut self.shuffle);
+        let mut up = self
+            .load
+            .upload_ready(ctx, pass, dst, self.config.batches_per_frame)?;
+        let interleaved = matches!(dst.order(), SlotOrder::Interleaved(_));
+        while interleaved
+            && up.batches >= self.config.batches_per_frame
+            && up.batches < self.config.max_batches_per_frame
+            && up.failure.is_none()
+            && started.elapsed() < share
+        {
+            let more = self.load.upload_ready(ctx, pass, dst, 1)?;
+            if more.batches == 0 && more.failure.is_none() {
+                break;
+            }
+            up.batches += more.batches;
+            up.points += more.points;
+            up.stored += more.stored;
+            up.failure = more.failure;
+        }
+        Ok(up)
+    }
+
     /// Draws one frame: scatters what the load thread has ready, then reproject → fill →
     /// screen passes → prepare. Never waits for the load thread or for the GPU. Another
     /// `settings.variant` than the scene's rebuilds the passes first (see `set_variant`).
@@ -417,12 +458,7 @@ impl ProgressiveScene {
         let (screen, hidden_classes, splats) =
             (&settings.screen, &settings.hidden_classes, &settings.splats);
         self.frame += 1;
-        let up = self.load.upload_ready(
-            ctx,
-            &mut self.shuffle,
-            self.cloud.shuffled(),
-            self.config.batches_per_frame,
-        )?;
+        let up = self.upload(ctx)?;
         if let Some(f) = &up.failure {
             self.failure = Some(f.to_string());
         }

@@ -159,6 +159,11 @@ impl PartedSource for StorePoints {
         Some(self.store.header().quantization)
     }
 
+    /// Pointlets: shuffled inside when the store was built.
+    fn shuffled_groups(&self) -> Option<u64> {
+        Some(self.store.header().pointlet_size)
+    }
+
     fn read_quantized_positions(&self, i: usize, raw: &mut Vec<u8>) -> Result<usize, PartError> {
         let range = self.pointlets_of(i).map_err(|e| Box::new(e) as PartError)?;
         self.store

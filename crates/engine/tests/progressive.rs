@@ -1,13 +1,14 @@
 //! Progressive loading of point files: every point lands in the shuffled buffer where the CPU
 //! permutation puts it, progress reaches the header's count, a file cut while loading keeps
 //! what was read before the cut and reports the error once, and the queue bound holds. A
-//! store's positions go to the GPU as stored and land within an ulp of the CPU's encoding.
+//! store's positions go to the GPU as stored and land, its pointlets interleaved, within an
+//! ulp of the CPU's encoding.
 
 mod common;
 use common::context;
 
 use pointlet_core::color::{point_color, ColorMode};
-use pointlet_core::progressive::{Reservoir, ShufflePermutation};
+use pointlet_core::progressive::{GroupInterleave, Reservoir, SlotOrder};
 use pointlet_engine::progressive::{
     LoadConfig, LoadProgress, LoadState, ProgressiveLoad, Uploaded,
 };
@@ -98,7 +99,10 @@ impl Gpu {
     }
 
     fn buffer(&self, load: &ProgressiveLoad) -> ShuffledBuffer {
-        ShuffledBuffer::new(&self.ctx, PointEncoding::Full16, load.slots() as u32).unwrap()
+        let mut b =
+            ShuffledBuffer::new(&self.ctx, PointEncoding::Full16, load.slots() as u32).unwrap();
+        b.set_order(load.order()).unwrap();
+        b
     }
 
     fn upload(&mut self, load: &mut ProgressiveLoad, dst: &ShuffledBuffer) -> Uploaded {
@@ -233,10 +237,18 @@ fn ulps(a: f32, b: f32, at: f32) -> f64 {
 }
 
 #[test]
-fn a_store_lands_where_the_cpu_permutation_puts_it_dequantized_on_the_gpu() {
+fn a_store_lands_in_interleaved_pointlets_dequantized_on_the_gpu() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.pointlet");
     common::build_store(&path, 120_000, 5, 300);
+    check_store_load(&path, u64::from(u32::MAX));
+    // A budget of fewer slots keeps the first points of every pointlet.
+    check_store_load(&path, 50_000);
+}
+
+/// Loads the store at `path` into at most `max_slots` slots and checks every slot against the
+/// CPU's encoding of the point the store's interleave puts there.
+fn check_store_load(path: &Path, max_slots: u64) {
     let mut gpu = Gpu::new();
     // Batches of two parts (of ~1 875 points), one waiting and one decoding at a time: the
     // few decoded before the first upload tells the loader the GPU go encoded on the CPU,
@@ -246,9 +258,15 @@ fn a_store_lands_where_the_cpu_permutation_puts_it_dequantized_on_the_gpu() {
         parallel_parts: 1,
         queue_batches: 1,
         batches_decoding: 1,
+        max_slots,
         ..Default::default()
     };
-    let mut load = ProgressiveLoad::start(&path, config).unwrap();
+    let mut load = ProgressiveLoad::start(path, config).unwrap();
+    let store = pointlet_store::Store::open(path).unwrap();
+    let h = store.header();
+    let order = SlotOrder::Interleaved(GroupInterleave::new(h.points, h.pointlet_size).unwrap());
+    assert_eq!(load.order(), order);
+    assert_eq!(load.slots(), max_slots.min(h.points));
     let dst = gpu.buffer(&load);
     let give_up = Instant::now() + Duration::from_secs(60);
     let (mut stored, mut points) = (0, 0);
@@ -269,17 +287,17 @@ fn a_store_lands_where_the_cpu_permutation_puts_it_dequantized_on_the_gpu() {
     );
     let got = dst.read(&gpu.ctx).unwrap();
     let scale = load.color().unwrap().scale;
-    let step = pointlet_store::Store::open(&path)
-        .unwrap()
-        .header()
-        .quantization
-        .scale;
-    let perm = ShufflePermutation::new(load.total()).unwrap();
-    let mut r = pointlet_engine::open_points(&path, &Default::default()).unwrap();
-    let mut i = 0u64;
+    let step = h.quantization.scale;
+    let mut r = pointlet_engine::open_points(path, &Default::default()).unwrap();
+    let (mut i, mut kept) = (0u64, 0u64);
     while let Some(b) = r.read_batch(7_000).unwrap() {
         for k in 0..b.len() {
-            let t = perm.target(i) as usize;
+            let t = order.target(i) as usize;
+            if t as u64 >= load.slots() {
+                i += 1;
+                continue;
+            }
+            kept += 1;
             let want = encode_point(b.xyz[k], load.origin(), [1.0; 3], PointEncoding::Full16);
             for a in 0..3 {
                 let (g, w) = (
@@ -295,7 +313,7 @@ fn a_store_lands_where_the_cpu_permutation_puts_it_dequantized_on_the_gpu() {
             i += 1;
         }
     }
-    assert_eq!(i, 120_000);
+    assert_eq!((i, kept), (120_000, load.slots()));
 }
 
 #[test]

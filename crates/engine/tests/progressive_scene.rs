@@ -410,14 +410,23 @@ fn a_file_beyond_the_vram_budget_keeps_a_uniform_subset() {
     let batch = terrain();
     let path = dir.path().join("big.las");
     write_las(&path, &batch, false);
+    // A LAS file keeps the reservoir's subset; a store the first points of every pointlet.
+    let store = dir.path().join("big.pointlet");
+    write_store(&store, &path);
+    for path in [path, store] {
+        keeps_a_uniform_subset(&ctx, &path, &batch);
+    }
+}
+
+fn keeps_a_uniform_subset(ctx: &pointlet_gpu::GpuContext, path: &Path, batch: &PointBatch) {
     let keep = 10_000u64;
     let mut cfg = config(RasterVariant::AtomicMin, 4_000);
     cfg.vram_budget = keep * pointlet_engine::SLOT_BYTES;
-    let mut scene = ProgressiveScene::open(&ctx, &path, cfg).unwrap();
+    let mut scene = ProgressiveScene::open(ctx, path, cfg).unwrap();
     assert_eq!((scene.slots(), scene.points()), (keep, N as u64));
-    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
-    converge(&ctx, &mut scene, &camera(), &mut target);
-    assert!(lit(&target.read_rgba(&ctx).unwrap()) > 1000);
+    let mut target = RenderTarget::new(ctx, W, H).unwrap();
+    converge(ctx, &mut scene, &camera(), &mut target);
+    assert!(lit(&target.read_rgba(ctx).unwrap()) > 1000);
     assert_eq!(scene.progress().uploaded, N as u64, "every point was read");
 
     // Which point of the file each slot holds.
@@ -427,7 +436,7 @@ fn a_file_beyond_the_vram_budget_keeps_a_uniform_subset() {
         .enumerate()
         .map(|(i, p)| (p.map(|v| (v * GRID).round() as i64), i))
         .collect();
-    let (contents, origin) = scene.read_buffer(&ctx).unwrap();
+    let (contents, origin) = scene.read_buffer(ctx).unwrap();
     let slots: Vec<usize> = contents
         .positions
         .chunks(3)
@@ -450,7 +459,8 @@ fn a_file_beyond_the_vram_budget_keeps_a_uniform_subset() {
     let (chi, dof) = chi_square(&bins, &[keep as f64 / 20.0; 20]);
     assert!(
         chi < chi_critical(dof),
-        "file order: χ² {chi:.1} ≥ {:.1}",
+        "{}, file order: χ² {chi:.1} ≥ {:.1}",
+        path.display(),
         chi_critical(dof)
     );
 
@@ -476,7 +486,8 @@ fn a_file_beyond_the_vram_budget_keeps_a_uniform_subset() {
         let (chi, dof) = chi_square(&got, &want);
         assert!(
             chi < chi_critical(dof),
-            "prefix {prefix}: spatial χ² {chi:.1} ≥ {:.1}",
+            "{}, prefix {prefix}: spatial χ² {chi:.1} ≥ {:.1}",
+            path.display(),
             chi_critical(dof)
         );
     }

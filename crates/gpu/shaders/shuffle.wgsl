@@ -5,6 +5,11 @@
 // Follows the progressive-rendering paper (Schütz et al.), §3.1 (Distribute buffer into the
 // shuffled vertex buffer) and §3.3, eq. 1 (permute) and eq. 2 (target = permute ∘ permute),
 // with P the largest prime ≡ 3 (mod 4) not above the buffer's size (0: identity).
+// A store's points are in pointlets shuffled when it was built: `interleaved` puts point j of
+// every pointlet before point j + 1 of any, blocks of neighbouring pointlets permuted within a
+// row by eq. 1–2 over the blocks (core::progressive::GroupInterleave) instead, and
+// threads walk a batch row by row, so that neighbouring threads write neighbouring slots (the
+// permutation's writes to random slots of a multi-GB buffer cost ~1 ns a point).
 // WGSL has only 32-bit integers, so i² mod P is a Montgomery product (REDC with R = 2^32) of
 // 16-bit partial products: straight-line code, no loop over the bits.
 // Two variations: `given_slots` takes each point's slot from src_slots instead (points past the
@@ -15,7 +20,7 @@
 // bytes go to the GPU as they are (paper §5: loading is bound by reading and uploading).
 
 struct Shuffle {
-    // Slots of the whole shuffled buffer.
+    // Slots of the whole shuffled buffer: points whose target lies past them are left out.
     n: u32,
     prime: u32,
     // Global index of staging element 0, and the batch's size.
@@ -33,6 +38,18 @@ struct Shuffle {
     // Montgomery constants of prime (R = 2^32): -prime⁻¹ mod R and R² mod prime.
     neg_inv: u32,
     r2: u32,
+    // Interleaved groups of 2^group_shift points: their number, the rows that include the
+    // (possibly short) last group, and the groups a batch touches. `prime` and its constants
+    // then permute the whole blocks (of 2^block_shift groups) of a row.
+    interleaved: u32,
+    group_shift: u32,
+    groups: u32,
+    full_rows: u32,
+    window: u32,
+    // Points the order places (n or more: those past the slots are left out).
+    points: u32,
+    block_shift: u32,
+    blocks: u32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
@@ -130,18 +147,49 @@ fn shuffle_target(i: u32, m: Modulus) -> u32 {
     return permute(permute(i, m), m);
 }
 
+// The slot of point i under the interleave: row i mod group, column its group's, its block
+// moved by eq. 2 over the row's whole blocks.
+fn interleaved_target(i: u32) -> u32 {
+    let row = i & ((1u << shuffle.group_shift) - 1u);
+    let group = i >> shuffle.group_shift;
+    let block = group >> shuffle.block_shift;
+    var column = group;
+    if block < shuffle.blocks {
+        let m = Modulus(shuffle.prime, shuffle.neg_inv, shuffle.r2);
+        let within = group & ((1u << shuffle.block_shift) - 1u);
+        column = (shuffle_target(block, m) << shuffle.block_shift) | within;
+    }
+    if row < shuffle.full_rows {
+        return row * shuffle.groups + column;
+    }
+    let full = shuffle.full_rows * shuffle.groups;
+    return full + (row - shuffle.full_rows) * (shuffle.groups - 1u) + column;
+}
+
 @compute @workgroup_size(256)
 fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
            @builtin(num_workgroups) nwg: vec3<u32>) {
-    let j = gid.x + gid.y * nwg.x * 256u;
-    if j >= shuffle.count {
-        return;
-    }
+    var j = gid.x + gid.y * nwg.x * 256u;
     var t: u32;
-    if shuffle.given_slots != 0u {
+    if shuffle.interleaved != 0u {
+        // Thread k takes row k / window of the batch's groups, group k mod window of them.
+        if j >= shuffle.window << shuffle.group_shift {
+            return;
+        }
+        let row = j / shuffle.window;
+        let group = (shuffle.first >> shuffle.group_shift) + j % shuffle.window;
+        let i = (group << shuffle.group_shift) + row;
+        if i < shuffle.first || i - shuffle.first >= shuffle.count || i >= shuffle.points {
+            return;
+        }
+        j = i - shuffle.first;
+        t = interleaved_target(i);
+    } else if j >= shuffle.count {
+        return;
+    } else if shuffle.given_slots != 0u {
         t = src_slots[j];
     } else {
-        if shuffle.first + j >= shuffle.n {
+        if shuffle.first + j >= shuffle.points {
             return;
         }
         t = shuffle_target(shuffle.first + j, Modulus(shuffle.prime, shuffle.neg_inv, shuffle.r2));

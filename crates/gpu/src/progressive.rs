@@ -171,6 +171,14 @@ impl ProgressiveCloud {
         &self.shuffled
     }
 
+    /// Places points by `order` (see [`ShuffledBuffer::set_order`]); before the first batch.
+    pub fn set_order(
+        &mut self,
+        order: pointlet_core::progressive::SlotOrder,
+    ) -> Result<(), GpuError> {
+        self.shuffled.set_order(order)
+    }
+
     /// The position of the point in `slot` (f32 offsets from the origin), `None` for an empty
     /// or missing slot; waits for the GPU.
     pub fn position(&self, ctx: &GpuContext, slot: u32) -> Result<Option<[f64; 3]>, GpuError> {

@@ -1,7 +1,8 @@
 //! The shuffled point buffer of progressive rendering (progressive-rendering paper §3.1,
 //! §3.3): batches arrive in a staging ("Distribute") buffer in load order, and `ShufflePass`
-//! scatters each point to its slot under the prime-number permutation, so that any prefix of
-//! the buffer is a spread-out subsample of the points loaded so far. Points are stored like
+//! scatters each point to its slot under the prime-number permutation (or, for a store, its
+//! pointlets interleaved: [`SlotOrder`]), so that any prefix of the buffer is a spread-out
+//! subsample of the points loaded so far. Points are stored like
 //! the point storage's: encoded position words, fine words (Compact8) and RGBA8 colours, in
 //! as many buffers as the binding limit requires.
 
@@ -12,7 +13,7 @@ use crate::storage::{PointEncoding, PointStorage};
 use crate::target::map_read;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use pointlet_core::progressive::ShufflePermutation;
+use pointlet_core::progressive::{ShufflePermutation, SlotOrder};
 
 /// Points of a batch, encoded as the streams store them (see [`crate::encode_point`]):
 /// `positions` has 3 words per point for Full16 and 1 for Compact8, `fine` one word per point
@@ -287,10 +288,12 @@ struct ShuffledChunk {
     slots: u32,
 }
 
-/// A point buffer of n slots that batches are shuffled into.
+/// A point buffer of n slots that batches are shuffled into: point i goes to slot
+/// `order.target(i)`, or is left out when that lies past the slots.
 pub struct ShuffledBuffer {
     encoding: PointEncoding,
-    permutation: ShufflePermutation,
+    slots: u32,
+    order: SlotOrder,
     chunks: Vec<ShuffledChunk>,
 }
 
@@ -308,8 +311,7 @@ impl ShuffledBuffer {
         n: u32,
         max_chunk_slots: u32,
     ) -> Result<Self, GpuError> {
-        let permutation =
-            ShufflePermutation::new(n as u64).map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+        let order = permuted(n)?;
         // The position stream is the largest per point: it decides how many slots fit.
         let limit = ctx.caps.max_binding.min(ctx.caps.max_buffer) / encoding.position_bytes();
         let per_chunk = limit.min(max_chunk_slots as u64).max(1) as u32;
@@ -352,7 +354,8 @@ impl ShuffledBuffer {
         }
         Ok(Self {
             encoding,
-            permutation,
+            slots: n,
+            order,
             chunks,
         })
     }
@@ -361,8 +364,7 @@ impl ShuffledBuffer {
     /// s % page_size of page s / page_size, so the rasterizers draw it as they draw any page
     /// (progressive.rs). The buffers are shared, not copied.
     pub(crate) fn in_storage(storage: &PointStorage, n: u32) -> Result<Self, GpuError> {
-        let permutation =
-            ShufflePermutation::new(n as u64).map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+        let order = permuted(n)?;
         let page = storage.page_size as u64;
         let chunks = storage
             .chunks
@@ -382,17 +384,37 @@ impl ShuffledBuffer {
             .collect();
         Ok(Self {
             encoding: storage.encoding,
-            permutation,
+            slots: n,
+            order,
             chunks,
         })
+    }
+
+    /// Places points by `order` instead of the permutation of the slots; an order of fewer
+    /// points than slots is refused (slots nothing could fill).
+    pub fn set_order(&mut self, order: SlotOrder) -> Result<(), GpuError> {
+        if order.len() < u64::from(self.slots) {
+            return Err(GpuError::InvalidInput(format!(
+                "an order of {} points for a shuffled buffer of {} slots",
+                order.len(),
+                self.slots
+            )));
+        }
+        self.order = order;
+        Ok(())
     }
 
     pub fn encoding(&self) -> PointEncoding {
         self.encoding
     }
 
-    pub fn permutation(&self) -> ShufflePermutation {
-        self.permutation
+    /// Slots of the buffer.
+    pub fn slots(&self) -> u32 {
+        self.slots
+    }
+
+    pub fn order(&self) -> SlotOrder {
+        self.order
     }
 
     /// Buffers the slots are split over.
@@ -411,13 +433,20 @@ impl ShuffledBuffer {
             out.colors.extend(read_words(ctx, &chunk.colors)?);
         }
         // The one-slot chunk of an empty buffer holds no point.
-        let n = self.permutation.len() as usize;
+        let n = self.slots as usize;
         let words = (self.encoding.position_bytes() / 4) as usize;
         out.positions.truncate(n * words);
         out.fine.truncate(n);
         out.colors.truncate(n);
         Ok(out)
     }
+}
+
+/// The paper's permutation of `n` slots.
+fn permuted(n: u32) -> Result<SlotOrder, GpuError> {
+    ShufflePermutation::new(u64::from(n))
+        .map(SlotOrder::Permuted)
+        .map_err(|e| GpuError::InvalidInput(e.to_string()))
 }
 
 fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u32>, GpuError> {
@@ -455,6 +484,14 @@ struct ShuffleUniform {
     quantized: u32,
     neg_inv: u32,
     r2: u32,
+    interleaved: u32,
+    group_shift: u32,
+    groups: u32,
+    full_rows: u32,
+    window: u32,
+    points: u32,
+    block_shift: u32,
+    blocks: u32,
     _pad: [u32; 3],
     dequantize: DequantizeUniform,
 }
@@ -599,7 +636,7 @@ impl ShufflePass {
         };
         let words = dst.encoding.position_bytes() / 4;
         let compact = dst.encoding == PointEncoding::Compact8;
-        let n = dst.permutation.len();
+        let n = dst.order.len();
         let (first, slots) = match targets {
             Targets::Permuted { first } => (first, None),
             Targets::Slots(s) => (0, Some(s)),
@@ -617,9 +654,10 @@ impl ShufflePass {
                     s.len()
                 )));
             }
-            Some(s) if s.iter().any(|&t| t as u64 >= n) => {
+            Some(s) if s.iter().any(|&t| t >= dst.slots) => {
                 return Err(GpuError::InvalidInput(format!(
-                    "a slot beyond the {n} of the shuffled buffer"
+                    "a slot beyond the {} of the shuffled buffer",
+                    dst.slots
                 )));
             }
             _ => {}
@@ -656,7 +694,25 @@ impl ShufflePass {
             q.write_buffer(&staging.slots, 0, bytemuck::cast_slice(s));
         }
         let layout = self.pipeline.get_bind_group_layout(0);
-        let (neg_inv, r2) = montgomery_constants(dst.permutation.prime() as u32);
+        let prime = match dst.order {
+            SlotOrder::Permuted(p) => p.prime() as u32,
+            SlotOrder::Interleaved(g) => g.blocks().prime() as u32,
+        };
+        let (neg_inv, r2) = montgomery_constants(prime);
+        // Interleaved groups: one thread per point of the window of groups the batch touches.
+        let interleave = match (dst.order, slots) {
+            (SlotOrder::Interleaved(g), None) => Some(g),
+            _ => None,
+        };
+        let (window, threads) = match interleave {
+            Some(g) => {
+                let shift = g.shift();
+                let (start, end) = (first as u64 >> shift, (first as u64 + count - 1) >> shift);
+                let window = end + 1 - start;
+                (window as u32, window << shift)
+            }
+            None => (0, count),
+        };
         ctx.checked("recording the shuffle pass", || {
             // One uniform and bind group per destination chunk: each dispatch sees its own.
             let groups: Vec<wgpu::BindGroup> = dst
@@ -664,8 +720,8 @@ impl ShufflePass {
                 .iter()
                 .map(|c| {
                     let uniform = ShuffleUniform {
-                        n: n as u32,
-                        prime: dst.permutation.prime() as u32,
+                        n: dst.slots,
+                        prime,
                         first,
                         count: count as u32,
                         first_slot: c.first_slot,
@@ -677,6 +733,14 @@ impl ShufflePass {
                         quantized: dequantize.is_some() as u32,
                         neg_inv,
                         r2,
+                        interleaved: interleave.is_some() as u32,
+                        group_shift: interleave.map_or(0, |g| g.shift()),
+                        groups: interleave.map_or(0, |g| g.groups() as u32),
+                        full_rows: interleave.map_or(0, |g| g.full_rows() as u32),
+                        window,
+                        points: n.min(u64::from(u32::MAX)) as u32,
+                        block_shift: interleave.map_or(0, |g| g.block_shift()),
+                        blocks: interleave.map_or(0, |g| g.blocks().len() as u32),
                         _pad: [0; 3],
                         dequantize: dequantize.map(|d| d.uniform()).unwrap_or_default(),
                     };
@@ -707,7 +771,7 @@ impl ShufflePass {
                 timestamp_writes: None,
             });
             pass.set_pipeline(&self.pipeline);
-            let [x, y] = grid((count as u32).div_ceil(256));
+            let [x, y] = grid(threads.div_ceil(256) as u32);
             for g in &groups {
                 pass.set_bind_group(0, g, &[]);
                 pass.dispatch_workgroups(x, y, 1);

@@ -1,11 +1,14 @@
 //! The GPU shuffle pass against the CPU permutation: batches scattered into a shuffled
-//! buffer land exactly where `ShufflePermutation::target` puts them, and the shader's 32-bit
+//! buffer land exactly where `ShufflePermutation::target` (or a store's `GroupInterleave`)
+//! puts them, and the shader's 32-bit
 //! modular arithmetic is exact up to primes just below 2^32. Batches go through the queue or
 //! through mapped upload memory (`StagedBatch`), alternately.
 
 mod common;
 
-use pointlet_core::progressive::{prime_3_mod_4_at_most, ShufflePermutation};
+use pointlet_core::progressive::{
+    prime_3_mod_4_at_most, GroupInterleave, ShufflePermutation, SlotOrder,
+};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
     montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents,
@@ -32,15 +35,30 @@ fn points(n: u32, encoding: PointEncoding, seed: u64) -> ShuffledContents {
 
 /// Where the CPU permutation puts every point.
 fn reference(loaded: &ShuffledContents, n: u32, encoding: PointEncoding) -> ShuffledContents {
-    let perm = ShufflePermutation::new(n as u64).unwrap();
+    let perm = SlotOrder::Permuted(ShufflePermutation::new(n as u64).unwrap());
+    placed(loaded, perm, n, encoding)
+}
+
+/// Where `order` puts every point in a buffer of `slots` slots (those past them left out).
+fn placed(
+    loaded: &ShuffledContents,
+    order: SlotOrder,
+    slots: u32,
+    encoding: PointEncoding,
+) -> ShuffledContents {
     let words = (encoding.position_bytes() / 4) as usize;
+    let compact = !loaded.fine.is_empty();
+    let slots = slots as usize;
     let mut out = ShuffledContents {
-        positions: vec![0; loaded.positions.len()],
-        fine: vec![0; loaded.fine.len()],
-        colors: vec![0; loaded.colors.len()],
+        positions: vec![0; slots * words],
+        fine: vec![0; if compact { slots } else { 0 }],
+        colors: vec![0; slots],
     };
-    for i in 0..n as usize {
-        let t = perm.target(i as u64) as usize;
+    for i in 0..loaded.colors.len() {
+        let t = order.target(i as u64) as usize;
+        if t >= slots {
+            continue;
+        }
         out.colors[t] = loaded.colors[i];
         out.positions[t * words..(t + 1) * words]
             .copy_from_slice(&loaded.positions[i * words..(i + 1) * words]);
@@ -150,6 +168,49 @@ fn batches_land_where_the_cpu_permutation_puts_them() {
             "{encoding:?} / {chunk_slots}: the streams differ"
         );
     }
+}
+
+#[test]
+fn batches_of_interleaved_groups_land_row_by_row() {
+    let ctx = common::context();
+    let mut pass = ShufflePass::new(&ctx).unwrap();
+    // Groups with a short last group (300 010 = 292 · 1024 + 1 002); batches that
+    // start and end inside groups, cross chunk borders and outgrow the first staging; a
+    // buffer with every point, chunked, and one with fewer slots (later rows left out).
+    let n = 300_010u32;
+    let sizes = [1, 4_999, 100_000, 37, 70_000, 0];
+    // Groups of 1 024 permute single groups in a row, groups of 16 blocks of 16 groups.
+    let order = |group| SlotOrder::Interleaved(GroupInterleave::new(n as u64, group).unwrap());
+    for (encoding, slots, chunk_slots, order) in [
+        (PointEncoding::Full16, n, 70_001, order(1024)),
+        (PointEncoding::Compact8, n, u32::MAX, order(1024)),
+        (PointEncoding::Full16, 123_456, 50_000, order(1024)),
+        (PointEncoding::Full16, n, 70_001, order(16)),
+        (PointEncoding::Full16, 123_456, u32::MAX, order(16)),
+    ] {
+        if let SlotOrder::Interleaved(g) = order {
+            assert_eq!(g.block_shift(), if g.groups() > 1 << 14 { 4 } else { 0 });
+        }
+        let mut dst = ShuffledBuffer::with_chunk_slots(&ctx, encoding, slots, chunk_slots).unwrap();
+        dst.set_order(order).unwrap();
+        assert_eq!((dst.slots(), dst.order()), (slots, order));
+        let loaded = points(n, encoding, 7 + slots as u64);
+        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes);
+        let got = dst.read(&ctx).unwrap();
+        let want = placed(&loaded, order, slots, encoding);
+        let wrong = (0..slots as usize)
+            .filter(|&s| got.colors[s] != want.colors[s])
+            .count();
+        assert_eq!(wrong, 0, "{encoding:?} / {slots}: {wrong} slots differ");
+        assert!(got == want, "{encoding:?} / {slots}: the streams differ");
+    }
+    // An order that places fewer points than the buffer has slots is refused.
+    let mut small = ShuffledBuffer::new(&ctx, PointEncoding::Full16, 1000).unwrap();
+    let short = SlotOrder::Interleaved(GroupInterleave::new(999, 64).unwrap());
+    assert!(matches!(
+        small.set_order(short),
+        Err(GpuError::InvalidInput(_))
+    ));
 }
 
 /// Distance between two floats in f32 steps at `at` (the larger of their magnitude and
