@@ -470,9 +470,79 @@ pub fn point_colors(batch: &PointBatch, scale: &ColorScale, out: &mut [u32]) {
     }
 }
 
+/// [`point_colors`] in RGB mode from the stored bytes: `rgb` holds three little-endian u16 a
+/// point, `classes` one byte a point (the alpha). A byte of each u16 is the 8-bit value: the
+/// high one, or the low one for `rgb_8bit` data.
+pub fn rgb_colors_from_bytes(rgb: &[u8], classes: &[u8], rgb_8bit: bool, out: &mut [u32]) {
+    let at = usize::from(!rgb_8bit);
+    for ((o, c), &class) in out.iter_mut().zip(rgb.chunks_exact(6)).zip(classes) {
+        *o = u32::from_le_bytes([c[at], c[2 + at], c[4 + at], class]);
+    }
+}
+
+/// [`point_colors`] in classification mode from the classes alone.
+pub fn class_colors(classes: &[u8], out: &mut [u32]) {
+    let table: [u32; 256] =
+        std::array::from_fn(|c| pack_rgba(classification_color(c as u8), c as u8));
+    for (o, &c) in out.iter_mut().zip(classes) {
+        *o = table[usize::from(c)];
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colours_from_stored_bytes_equal_point_colors() {
+        let mut rng = crate::shuffle::SplitMix64::new(3);
+        let mut b = PointBatch::new(PointLayout {
+            rgb: true,
+            ..PointLayout::default()
+        });
+        for _ in 0..5_000 {
+            let r = rng.next_u64();
+            b.xyz.push([0.0; 3]);
+            // Some 8-bit values stored in 16 bits, some full 16-bit ones.
+            let v = |s: u32| {
+                if r & 1 == 0 {
+                    (r >> s) as u16 & 0xff
+                } else {
+                    (r >> s) as u16
+                }
+            };
+            b.rgb.push([v(8), v(24), v(40)]);
+            b.classification.push((r >> 56) as u8);
+        }
+        let rgb: Vec<u8> = b
+            .rgb
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let n = b.len();
+        for rgb_8bit in [false, true] {
+            let scale = ColorScale {
+                mode: ColorMode::Rgb,
+                range: [0.0, 1.0],
+                gamma: 1.0,
+                rgb_8bit,
+                ramp: Ramp::Grey,
+                extra: None,
+            };
+            let (mut want, mut got) = (vec![0; n], vec![0; n]);
+            point_colors(&b, &scale, &mut want);
+            rgb_colors_from_bytes(&rgb, &b.classification, rgb_8bit, &mut got);
+            assert_eq!(got, want, "rgb_8bit {rgb_8bit}");
+            let classes = ColorScale {
+                mode: ColorMode::Classification,
+                ..scale
+            };
+            point_colors(&b, &classes, &mut want);
+            class_colors(&b.classification, &mut got);
+            assert_eq!(got, want);
+        }
+    }
 
     #[test]
     fn ramps_hit_their_end_points() {

@@ -68,6 +68,22 @@ pub trait PartedSource: Sync {
         self.decode_part_for(i, out, scratch, mode)
     }
 
+    /// The RGBA8 colours of part `i` under `scale` (`out` holds one per point) straight from
+    /// the stored bytes, for sources that keep columns apart when `scale` takes them as they
+    /// are (RGB, classification): `Ok(false)` otherwise, and the caller decodes the part and
+    /// colours it. `bytes` and `classes` are scratch the caller keeps per thread.
+    fn stored_colors(
+        &self,
+        i: usize,
+        scale: &crate::color::ColorScale,
+        out: &mut [u32],
+        bytes: &mut Vec<u8>,
+        classes: &mut Vec<u8>,
+    ) -> Result<bool, PartError> {
+        let _ = (i, scale, out, bytes, classes);
+        Ok(false)
+    }
+
     /// `Some(k)` when the points come in groups of k (a power of two; the last group may be
     /// shorter), each group in random order, so that the first points of a group are a uniform
     /// sample of it: a store's pointlets. A progressive loader may then interleave the groups

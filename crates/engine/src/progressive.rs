@@ -925,6 +925,7 @@ fn encode_part(
         bytes,
         positions,
         colors,
+        ..
     } = scratch;
     parts
         .decode_part_for(i, batch, bytes, color.scale.mode)
@@ -958,6 +959,7 @@ struct PartScratch {
     bytes: Vec<u8>,
     positions: Vec<u32>,
     colors: Vec<u32>,
+    classes: Vec<u8>,
 }
 
 /// Scratch of finished parts for the next ones (dropped with the load).
@@ -993,6 +995,7 @@ fn stored_part(
         batch,
         bytes: raw,
         colors: c_words,
+        classes,
         ..
     } = scratch;
     let size = parts.part_sizes()[i];
@@ -1006,11 +1009,16 @@ fn stored_part(
         ));
     }
     p.write(&raw[..bytes]).map_err(|e| e.to_string())?;
-    parts
-        .decode_attributes_for(i, batch, raw, color.scale.mode)
-        .map_err(|e| e.to_string())?;
     c_words.resize(size as usize, 0u32);
-    point_colors(batch, &color.scale, c_words);
+    let direct = parts
+        .stored_colors(i, &color.scale, c_words, raw, classes)
+        .map_err(|e| e.to_string())?;
+    if !direct {
+        parts
+            .decode_attributes_for(i, batch, raw, color.scale.mode)
+            .map_err(|e| e.to_string())?;
+        point_colors(batch, &color.scale, c_words);
+    }
     c.write(c_words).map_err(|e| e.to_string())
 }
 

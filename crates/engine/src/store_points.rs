@@ -2,7 +2,7 @@
 //! pointlets in stored order, groups of them as parts that threads read at once. Every point
 //! is drawn, no LoD: the loader's throughput with nothing to decode but fixed-size columns.
 
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{class_colors, rgb_colors_from_bytes, ColorMode, ColorScale};
 use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use pointlet_io::{IoError, PointReader, ReadOptions};
 use pointlet_store::{Store, StreamKind};
@@ -157,6 +157,51 @@ impl PartedSource for StorePoints {
 
     fn quantized_positions(&self) -> Option<Quantization> {
         Some(self.store.header().quantization)
+    }
+
+    /// RGB and classification colours from the streams' bytes, without decoding a batch.
+    fn stored_colors(
+        &self,
+        i: usize,
+        scale: &ColorScale,
+        out: &mut [u32],
+        bytes: &mut Vec<u8>,
+        classes: &mut Vec<u8>,
+    ) -> Result<bool, PartError> {
+        let has = |kind| self.store.header().streams.iter().any(|s| s.kind == kind);
+        let rgb = match scale.mode {
+            ColorMode::Rgb if has(StreamKind::Rgb) => true,
+            ColorMode::Classification => false,
+            _ => return Ok(false),
+        };
+        if !has(StreamKind::Classification) {
+            return Ok(false);
+        }
+        let range = self.pointlets_of(i).map_err(|e| Box::new(e) as PartError)?;
+        let read = |kind, raw: &mut Vec<u8>, width: usize| -> Result<usize, PartError> {
+            let n = self
+                .store
+                .read_stream_into(range.clone(), kind, raw)
+                .map_err(|e| Box::new(IoError::Named(Box::new(e))) as PartError)?;
+            if n != out.len() * width {
+                return Err(format!(
+                    "{}: part {i} holds {n} bytes of {}, not {} points' worth",
+                    self.path.display(),
+                    StreamKind::name(kind),
+                    out.len()
+                )
+                .into());
+            }
+            Ok(n)
+        };
+        let n = read(StreamKind::Classification, classes, 1)?;
+        if rgb {
+            let m = read(StreamKind::Rgb, bytes, 6)?;
+            rgb_colors_from_bytes(&bytes[..m], &classes[..n], scale.rgb_8bit, out);
+        } else {
+            class_colors(&classes[..n], out);
+        }
+        Ok(true)
     }
 
     /// Pointlets: shuffled inside when the store was built.

@@ -241,14 +241,17 @@ fn a_store_lands_in_interleaved_pointlets_dequantized_on_the_gpu() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.pointlet");
     common::build_store(&path, 120_000, 5, 300);
-    check_store_load(&path, u64::from(u32::MAX));
+    check_store_load(&path, u64::from(u32::MAX), None);
     // A budget of fewer slots keeps the first points of every pointlet.
-    check_store_load(&path, 50_000);
+    check_store_load(&path, 50_000, None);
+    // Colours from the stream bytes: RGB above (the default), classes here.
+    check_store_load(&path, u64::from(u32::MAX), Some(ColorMode::Classification));
 }
 
-/// Loads the store at `path` into at most `max_slots` slots and checks every slot against the
-/// CPU's encoding of the point the store's interleave puts there.
-fn check_store_load(path: &Path, max_slots: u64) {
+/// Loads the store at `path` into at most `max_slots` slots, coloured by `color` (or the
+/// default), and checks every slot against the CPU's encoding of the point the store's
+/// interleave puts there.
+fn check_store_load(path: &Path, max_slots: u64, color: Option<ColorMode>) {
     let mut gpu = Gpu::new();
     // Batches of two parts (of ~1 875 points), one waiting and one decoding at a time: the
     // few decoded before the first upload tells the loader the GPU go encoded on the CPU,
@@ -259,6 +262,7 @@ fn check_store_load(path: &Path, max_slots: u64) {
         queue_batches: 1,
         batches_decoding: 1,
         max_slots,
+        color,
         ..Default::default()
     };
     let mut load = ProgressiveLoad::start(path, config).unwrap();
@@ -287,6 +291,7 @@ fn check_store_load(path: &Path, max_slots: u64) {
     );
     let got = dst.read(&gpu.ctx).unwrap();
     let scale = load.color().unwrap().scale;
+    assert_eq!(scale.mode, color.unwrap_or(ColorMode::Rgb));
     let step = h.quantization.scale;
     let mut r = pointlet_engine::open_points(path, &Default::default()).unwrap();
     let (mut i, mut kept) = (0u64, 0u64);
