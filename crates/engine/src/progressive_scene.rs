@@ -416,9 +416,11 @@ impl ProgressiveScene {
     /// share of upload time lasts.
     fn upload(&mut self, ctx: &GpuContext) -> Result<Uploaded, EngineError> {
         let started = Instant::now();
-        let share = Duration::from_secs_f64(
-            (self.config.target_frame_ms * self.config.upload_share).max(0.0) / 1e3,
-        );
+        // A nonsensical share (negative, NaN, infinite) takes no batch beyond the first ones.
+        let share = Duration::try_from_secs_f64(
+            self.config.target_frame_ms * self.config.upload_share / 1e3,
+        )
+        .unwrap_or(Duration::ZERO);
         let (dst, pass) = (self.cloud.shuffled(), &mut self.shuffle);
         let mut up = self
             .load
