@@ -786,9 +786,9 @@ impl Job {
 /// The order of a file of `total` points in a buffer of `slots`: a source of shuffled groups
 /// interleaves them (all points placed, those past the slots left out: the first points of
 /// every group, a uniform subset); any other is permuted, the reservoir placing what is past
-/// the slots.
+/// the slots. The GPU indexes points with 32 bits: a file of more points is permuted too.
 fn slot_order(groups: Option<u64>, total: u64, slots: u64) -> Result<SlotOrder, String> {
-    match groups {
+    match groups.filter(|_| total <= u64::from(u32::MAX)) {
         Some(k) => GroupInterleave::new(total, k).map(SlotOrder::Interleaved),
         None => ShufflePermutation::new(slots).map(SlotOrder::Permuted),
     }
@@ -1213,4 +1213,29 @@ fn send(job: &Job, batches: Vec<EncodedPoints>) -> Result<(), Stop> {
             .map_err(|_| Stop::Closed)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stores_interleave_within_32_bits_and_everything_else_is_permuted() {
+        let max = u64::from(u32::MAX);
+        let interleaved = |o| matches!(o, Ok(SlotOrder::Interleaved(_)));
+        assert!(interleaved(slot_order(Some(4096), 1_000_000, 1_000_000)));
+        assert!(interleaved(slot_order(Some(4096), max, 1 << 20)));
+        // Past 2^32 - 1 points a store keeps the reservoir's subset, as any file does.
+        let huge = slot_order(Some(4096), max + 1, max);
+        assert_eq!(
+            huge,
+            Ok(SlotOrder::Permuted(ShufflePermutation::new(max).unwrap()))
+        );
+        let file = slot_order(None, 5_000, 4_000);
+        assert_eq!(
+            file,
+            Ok(SlotOrder::Permuted(ShufflePermutation::new(4_000).unwrap()))
+        );
+        assert!(slot_order(Some(48), 100, 100).is_err());
+    }
 }
