@@ -541,19 +541,25 @@ mod tests {
         assert_eq!(GroupInterleave::new(64 * 40, 64).unwrap().block_shift(), 0);
     }
 
-    #[test]
-    fn prefixes_of_interleaved_shuffled_groups_of_a_sorted_grid_are_uniform() {
-        // The grid scanned row by row, cut into groups of 4096 points (four grid rows), each
-        // group shuffled as a store shuffles its pointlets.
-        let side = 1024u32;
+    /// A `side` × `side` grid scanned row by row, cut into groups of `group` points, each
+    /// group shuffled as a store shuffles its pointlets (seeds from `seed`): the points in
+    /// file order, and the slot → point index of their interleave.
+    fn shuffled_groups_of_a_grid(side: u32, group: usize, seed: u64) -> (Vec<u32>, Vec<u32>) {
         let n = (side * side) as u64;
-        let group = 4096usize;
         let mut points: Vec<u32> = (0..n as u32).collect();
         for (k, g) in points.chunks_mut(group).enumerate() {
-            crate::shuffle::shuffle(g, k as u64);
+            crate::shuffle::shuffle(g, k as u64 ^ seed);
         }
-        let order = GroupInterleave::new(n, group as u64).unwrap();
-        let slots = interleaved(&order);
+        let slots = interleaved(&GroupInterleave::new(n, group as u64).unwrap());
+        (points, slots)
+    }
+
+    #[test]
+    fn prefixes_of_interleaved_shuffled_groups_of_a_sorted_grid_are_uniform() {
+        // Groups of 4096 points: four grid rows each.
+        let side = 1024u32;
+        let n = (side * side) as u64;
+        let (points, slots) = shuffled_groups_of_a_grid(side, 4096, 0);
         let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();
         for percent in [1, 5, 25] {
             let k = (n * percent / 100) as usize;
@@ -573,13 +579,9 @@ mod tests {
         let side = 1024u32;
         let n = (side * side) as u64;
         let group = 64usize;
-        let mut points: Vec<u32> = (0..n as u32).collect();
-        for (k, g) in points.chunks_mut(group).enumerate() {
-            crate::shuffle::shuffle(g, k as u64 ^ 0x5eed);
-        }
         let order = GroupInterleave::new(n, group as u64).unwrap();
         assert_eq!(order.block_shift(), 4);
-        let slots = interleaved(&order);
+        let (points, slots) = shuffled_groups_of_a_grid(side, group, 0x5eed);
         let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();
         let row = order.groups() as usize;
         for k in [row / 2, row + row / 2] {

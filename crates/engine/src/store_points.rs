@@ -168,7 +168,7 @@ impl PartedSource for StorePoints {
         bytes: &mut Vec<u8>,
         classes: &mut Vec<u8>,
     ) -> Result<bool, PartError> {
-        let has = |kind| self.store.header().streams.iter().any(|s| s.kind == kind);
+        let has = |kind| self.store.header().stream(kind).is_some();
         let rgb = match scale.mode {
             ColorMode::Rgb if has(StreamKind::Rgb) => true,
             ColorMode::Classification => false,
