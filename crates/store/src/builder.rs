@@ -112,6 +112,10 @@ type RawBounds = ([i32; 3], [i32; 3]);
 
 /// Points per parallel task when quantizing and keying a batch.
 const KEY_TASK: usize = 1 << 14;
+/// Stretches of buckets the in-memory writing stage sorts, one while the previous is written,
+/// and the fewest pairs a stretch holds.
+const SORT_STRETCHES: usize = 32;
+const MIN_STRETCH: usize = 1 << 16;
 /// Smallest run, whatever the budget (a tiny budget must still make progress).
 const MIN_RUN_POINTS: usize = 1 << 12;
 
@@ -485,6 +489,8 @@ impl StoreBuilder {
             self.run.records.truncate(add * rb);
             self.run.pairs = vec![(0, 0); target];
             self.run.pairs.truncate(add);
+            pio::huge_pages(&self.run.records);
+            pio::huge_pages(&self.run.pairs);
         }
         Self::grow(&mut self.run.pairs, n0 + add, expected, cap);
         Self::grow(
@@ -503,6 +509,7 @@ impl StoreBuilder {
         if v.capacity() < need {
             let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
             v.reserve_exact(target - v.len());
+            pio::huge_pages(v);
         }
     }
 
@@ -692,22 +699,53 @@ impl StoreBuilder {
             pio::discard(scratch);
             writing_from = std::time::Instant::now();
             timings.sorting = writing_from - sorting_from;
-            // Buckets are sorted just before the block that needs them, so writing the first
-            // blocks overlaps sorting the rest.
+            // Buckets are sorted a stretch at a time, each while the blocks of the one before
+            // are packed and written: sorting each block's few buckets just before it left most
+            // cores idle (4.9 of a 5.6 s writing stage, GPU machine, docs/BENCHMARKS.md).
+            let stretch = (n as usize / SORT_STRETCHES).max(MIN_STRETCH);
+            let stretch_end = |from: usize| {
+                let to = buckets.starts[from] + stretch;
+                (buckets.covering(to.min(n as usize)) + 1).min(buckets.len())
+            };
             Emitter::run(&out, |em| {
-                let (mut p0, mut sorted) = (0, 0);
+                let mut sorted = stretch_end(0);
+                sort::sort_buckets(pairs, &buckets, 0..sorted);
+                let mut p0 = 0;
                 while p0 < pointlets {
-                    let p1 = (p0 + block_pointlets).min(pointlets);
-                    let need = buckets.covering((p1 * k).min(n) as usize);
-                    sort::sort_buckets(pairs, &buckets, sorted..need);
-                    sorted = need;
-                    let source = Source::Run {
-                        records,
-                        order: pairs,
+                    let ready = buckets.starts[sorted];
+                    let (done, rest) = pairs.split_at_mut(ready);
+                    let next = if sorted < buckets.len() {
+                        stretch_end(sorted)
+                    } else {
+                        sorted
                     };
-                    em.block(p0, p1, &source)?;
-                    report(&progress, BuildPhase::Writing, (p1 * k).min(n), n);
-                    p0 = p1;
+                    let emit = || -> Result<u64, StoreError> {
+                        let mut p = p0;
+                        while p < pointlets {
+                            let p1 = (p + block_pointlets).min(pointlets);
+                            if (p1 * k).min(n) as usize > ready {
+                                break;
+                            }
+                            let source = Source::Run {
+                                records,
+                                order: done,
+                            };
+                            em.block(p, p1, &source)?;
+                            report(&progress, BuildPhase::Writing, (p1 * k).min(n), n);
+                            p = p1;
+                        }
+                        Ok(p)
+                    };
+                    let sort = || sort::sort_buckets_at(rest, ready, &buckets, sorted..next);
+                    let (emitted, ()) = rayon::join(emit, sort);
+                    p0 = emitted?;
+                    if next == sorted && p0 < pointlets {
+                        return Err(StoreError::build(
+                            em.path(),
+                            "internal error: pointlets left after every bucket was sorted",
+                        ));
+                    }
+                    sorted = next;
                 }
                 Ok(())
             })?

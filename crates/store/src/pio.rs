@@ -126,6 +126,32 @@ pub fn release(file: &File, offset: u64, len: u64) {
     let _ = (file, offset, len);
 }
 
+/// Asks for 2 MiB pages under a large vector's untouched capacity, where the kernel gives them
+/// only when asked (transparent huge pages in `madvise` mode, the default of many distributions).
+/// A build gathers records in random order from gigabytes of them: with 4 KiB pages nearly every
+/// read also misses the TLB, and faulting the buffer in takes 512 times the faults.
+pub fn huge_pages<T>(v: &Vec<T>) {
+    #[cfg(target_os = "linux")]
+    {
+        let (from, to) = aligned_span(v, 2 << 20);
+        if to > from {
+            // SAFETY: advice on whole pages of the vector's own allocation; it changes how the
+            // kernel backs them, never their contents, and a refusal leaves them as they were.
+            let _ =
+                unsafe { libc::madvise(from as *mut libc::c_void, to - from, libc::MADV_HUGEPAGE) };
+        }
+    }
+    let _ = v;
+}
+
+/// The addresses of the whole `align`-sized pieces inside a vector's allocation.
+#[cfg(target_os = "linux")]
+fn aligned_span<T>(v: &Vec<T>, align: usize) -> (usize, usize) {
+    let start = v.as_ptr() as usize;
+    let end = start + v.capacity() * std::mem::size_of::<T>();
+    (start.div_ceil(align) * align, end / align * align)
+}
+
 /// Frees a large vector on every thread: its pages go back to the kernel in parallel pieces,
 /// where one thread freeing gigabytes at once takes a large share of a second.
 pub fn discard<T: Copy + Send>(v: Vec<T>) {
@@ -133,9 +159,7 @@ pub fn discard<T: Copy + Send>(v: Vec<T>) {
     {
         use rayon::prelude::*;
         const PIECE: usize = 8 << 20;
-        let start = v.as_ptr() as usize;
-        let end = start + v.capacity() * std::mem::size_of::<T>();
-        let (from, to) = (start.div_ceil(PIECE) * PIECE, end / PIECE * PIECE);
+        let (from, to) = aligned_span(&v, PIECE);
         if to > from {
             (from..to)
                 .step_by(PIECE)

@@ -1,5 +1,7 @@
 //! Sorting (key, input index) pairs on every core: one parallel radix pass on the keys' top
-//! varying bits scatters the pairs into buckets, then each bucket is sorted on its own.
+//! varying bits scatters the pairs into buckets, then each bucket is sorted on its own by
+//! further radix passes on its own varying bits, down to sub-buckets small enough for a
+//! comparison sort.
 //!
 //! The buckets come out in key order, so a caller can sort the first buckets and start writing
 //! them while later buckets are still unsorted (the in-memory build does).
@@ -15,16 +17,44 @@ const RADIX_BITS: u32 = 16;
 /// Below this, one sort of the whole slice beats the radix pass.
 const SMALL: usize = 1 << 16;
 
-/// Bits of the radix pass for `n` pairs: buckets of ~[`BUCKET_PAIRS`] on average, at most
-/// [`RADIX_BITS`]. A spilled run of a few million pairs in 2^16 buckets spent most of its sort
-/// on per-chunk bucket tables and the serial sum over them.
-fn radix_bits(n: usize) -> u32 {
-    let buckets = (n / BUCKET_PAIRS).max(2);
-    (usize::BITS - 1 - buckets.leading_zeros()).min(RADIX_BITS)
-}
-
 /// Pairs per bucket the radix pass aims at.
 const BUCKET_PAIRS: usize = 4096;
+/// Keys sampled to find how many cells of the key space are occupied.
+const SAMPLES: usize = 1 << 16;
+
+/// Bits of the radix pass for `pairs`, whose keys vary in their low `varying` bits above
+/// `min`: the fewest (at most [`RADIX_BITS`]) that give the buckets a sample of the keys falls
+/// in ~[`BUCKET_PAIRS`] pairs each. Points on a surface occupy a small share of the cells of
+/// the key space (481 of 4096 top cells for a generated terrain), so sizing buckets by the
+/// number of cells left them 40–85 K pairs each; more bits than needed cost per-chunk bucket
+/// tables and the serial sum over them.
+fn radix_bits(pairs: &[Pair], min: u64, varying: u32) -> u32 {
+    let n = pairs.len();
+    let top = varying.min(RADIX_BITS);
+    let shift = varying - top;
+    let base = min >> shift;
+    let mut seen = vec![false; 1 << top];
+    for p in pairs.iter().step_by((n / SAMPLES).max(1)) {
+        seen[((p.0 >> shift) - base) as usize] = true;
+    }
+    for bits in 1..top {
+        // Cells of the coarser pass are whole groups of 2^(top - bits) finer cells.
+        let coarse = top - bits;
+        let mut occupied = 0usize;
+        let mut last = u64::MAX;
+        for (c, _) in seen.iter().enumerate().filter(|(_, &s)| s) {
+            let cell = (c as u64 + base) >> coarse;
+            if cell != last {
+                occupied += 1;
+                last = cell;
+            }
+        }
+        if n / occupied.max(1) <= BUCKET_PAIRS {
+            return bits;
+        }
+    }
+    top
+}
 
 /// Bucket boundaries: bucket `b` is `pairs[starts[b]..starts[b + 1]]`.
 pub(crate) struct Buckets {
@@ -49,15 +79,29 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     if n < SMALL {
         return Buckets { starts: vec![0, n] };
     }
+    match scatter(pairs, scratch) {
+        Some(starts) => {
+            std::mem::swap(pairs, scratch);
+            Buckets { starts }
+        }
+        None => Buckets { starts: vec![0, n] },
+    }
+}
+
+/// One parallel radix pass: writes `pairs` into `out` by the top varying bits of their keys
+/// (stable inside a bucket) and returns the bucket boundaries; `None` when every key is the
+/// same (nothing written).
+fn scatter(pairs: &[Pair], out: &mut Vec<Pair>) -> Option<Vec<usize>> {
+    let n = pairs.len();
     let (min, max) = pairs
         .par_iter()
         .fold(|| (u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)))
         .reduce(|| (u64::MAX, 0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
     let varying = 64 - (min ^ max).leading_zeros();
     if varying == 0 {
-        return Buckets { starts: vec![0, n] };
+        return None;
     }
-    let bits = varying.min(radix_bits(n));
+    let bits = radix_bits(pairs, min, varying);
     let shift = varying - bits;
     let base = min >> shift;
     let nb = ((max >> shift) - base + 1) as usize;
@@ -85,58 +129,115 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
         }
     }
     starts.push(at);
-    scratch.clear();
-    scratch.reserve_exact(n);
-    let out = SharedOut(scratch.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
+    out.clear();
+    out.reserve_exact(n);
+    crate::pio::huge_pages(out);
+    let dst = SharedOut(out.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
     pairs
         .par_chunks(chunk)
         .zip(offsets.into_par_iter())
         .for_each(|(c, mut off)| {
-            let out = &out;
+            let dst = &dst;
             for p in c {
                 let b = bucket(p.0);
                 // SAFETY: the offsets give every (chunk, bucket) its own range of slots, all
                 // below n (they add up to n), so no two writes touch the same slot.
-                unsafe { out.0.add(off[b]).write(*p) };
+                unsafe { dst.0.add(off[b]).write(*p) };
                 off[b] += 1;
             }
         });
     // SAFETY: the scatter wrote every one of the n slots exactly once.
-    unsafe { scratch.set_len(n) };
-    std::mem::swap(pairs, scratch);
-    Buckets { starts }
+    unsafe { out.set_len(n) };
+    Some(starts)
 }
 
 /// Sorts buckets `range` of `pairs` (each on its own, in parallel).
 pub(crate) fn sort_buckets(pairs: &mut [Pair], buckets: &Buckets, range: std::ops::Range<usize>) {
+    sort_buckets_at(pairs, 0, buckets, range);
+}
+
+/// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array.
+pub(crate) fn sort_buckets_at(
+    pairs: &mut [Pair],
+    base: usize,
+    buckets: &Buckets,
+    range: std::ops::Range<usize>,
+) {
     if range.is_empty() {
         return;
     }
     let (lo, hi) = (buckets.starts[range.start], buckets.starts[range.end]);
     let mut slices = Vec::with_capacity(range.len());
-    let mut rest = &mut pairs[lo..hi];
+    let mut rest = &mut pairs[lo - base..hi - base];
     for b in range {
         let len = buckets.starts[b + 1] - buckets.starts[b];
         let (head, tail) = std::mem::take(&mut rest).split_at_mut(len);
         slices.push(head);
         rest = tail;
     }
-    // The scatter keeps input order inside a bucket and pairs come in index order, so a stable
-    // sort on the key alone gives the (key, index) order, with cheaper comparisons. Large
-    // buckets (points on a surface fill few of the top cells) are split over threads too: a
-    // block being written may need only a few of them.
-    slices.into_par_iter().for_each(|s| {
-        if s.len() > SMALL {
-            s.par_sort_by_key(|p| p.0);
-        } else {
-            s.sort_by_key(|p| p.0);
-        }
-    });
+    slices.into_par_iter().for_each_init(Vec::new, sort_bucket);
 }
 
-/// Sorts pairs by key, ties by input index. Pairs must come in index order (each run's pairs
-/// do: index i at position i), which lets equal keys keep their order instead of comparing
-/// indices.
+/// Below this many pairs a comparison sort finishes a bucket.
+const LEAF: usize = 256;
+/// Above this many pairs a bucket is split by a parallel pass: points on a surface fill few of
+/// the top cells, and a dataset with a far outlier puts almost every point in one bucket.
+const LARGE: usize = 1 << 20;
+
+/// Sorts one bucket: radix passes on its own varying bits (at most 11 at a time, ~64 pairs a
+/// sub-bucket) down to sub-buckets of at most [`LEAF`] pairs, which a comparison sort finishes
+/// in the cache. Buckets come out larger than planned where keys cluster below the sample's
+/// resolution.
+fn sort_bucket(tmp: &mut Vec<Pair>, s: &mut [Pair]) {
+    let n = s.len();
+    if n <= LEAF {
+        // Pairs are unique, so the unstable sort of (key, index) gives the one order.
+        s.sort_unstable();
+        return;
+    }
+    if n > LARGE {
+        let mut out = Vec::new();
+        let Some(starts) = scatter(s, &mut out) else {
+            return s.par_sort_unstable();
+        };
+        s.par_chunks_mut(SMALL)
+            .zip(out.par_chunks(SMALL))
+            .for_each(|(a, b)| a.copy_from_slice(b));
+        let buckets = Buckets { starts };
+        return sort_buckets(s, &buckets, 0..buckets.len());
+    }
+    let (min, max) = s
+        .iter()
+        .fold((u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)));
+    let varying = 64 - (min ^ max).leading_zeros();
+    if varying == 0 {
+        return s.sort_unstable();
+    }
+    let bits = varying.min((n / 64).ilog2().clamp(1, 11));
+    let shift = varying - bits;
+    let base = min >> shift;
+    let mut starts = vec![0usize; ((max >> shift) - base + 2) as usize];
+    for p in s.iter() {
+        starts[((p.0 >> shift) - base) as usize + 1] += 1;
+    }
+    for b in 1..starts.len() {
+        starts[b] += starts[b - 1];
+    }
+    tmp.clear();
+    tmp.resize(n, (0, 0));
+    let mut at = starts.clone();
+    for p in s.iter() {
+        let b = ((p.0 >> shift) - base) as usize;
+        tmp[at[b]] = *p;
+        at[b] += 1;
+    }
+    s.copy_from_slice(tmp);
+    for w in starts.windows(2) {
+        sort_bucket(tmp, &mut s[w[0]..w[1]]);
+    }
+}
+
+/// Sorts pairs by key, ties by input index.
 pub(crate) fn sort_pairs(pairs: &mut Vec<Pair>) {
     sort_pairs_with(pairs, &mut Vec::new());
 }
@@ -167,11 +268,23 @@ mod tests {
 
     #[test]
     fn buckets_hold_a_few_thousand_pairs() {
-        assert_eq!(radix_bits(0), 1);
-        assert_eq!(radix_bits(SMALL), 4);
-        assert_eq!(radix_bits(5_500_000), 10);
-        assert_eq!(radix_bits(200_000_000), 15);
-        assert_eq!(radix_bits(usize::MAX), RADIX_BITS);
+        let mut rng = SplitMix64::new(11);
+        let bits = |pairs: &[Pair]| {
+            let min = pairs.iter().map(|p| p.0).min().unwrap_or(0);
+            let max = pairs.iter().map(|p| p.0).max().unwrap_or(0);
+            radix_bits(pairs, min, 64 - (min ^ max).leading_zeros())
+        };
+        // Keys over the whole space: 2^b cells of ~4096 pairs.
+        let uniform: Vec<Pair> = (0..4_000_000).map(|i| (rng.next_u64() >> 4, i)).collect();
+        assert_eq!(bits(&uniform), 10);
+        // The same count in 1 of every 8 top cells (a surface): three more bits.
+        let surface: Vec<Pair> = uniform.iter().map(|p| (p.0 & !(7 << 56), p.1)).collect();
+        assert_eq!(bits(&surface), 13);
+        // Never past RADIX_BITS, however many pairs; keys varying in fewer bits use those.
+        let many: Vec<Pair> = (0..1_000_000).map(|i| (rng.next_u64() >> 1, i)).collect();
+        assert!(bits(&many) <= RADIX_BITS);
+        let narrow: Vec<Pair> = (0..1_000_000).map(|i| (rng.below(8), i)).collect();
+        assert_eq!(bits(&narrow), 3);
     }
 
     #[test]
@@ -189,6 +302,19 @@ mod tests {
         check((0..n).map(|i| (42, i as u32)).collect());
         check((0..1000).map(|i| (rng.next_u64(), i as u32)).collect());
         check(Vec::new());
+        // Pairs out of index order, and a far outlier that leaves almost every pair in one
+        // top bucket (split again by a parallel pass).
+        let mut far: Vec<Pair> = (0..1_200_000)
+            .map(|i| ((1 << 40) + rng.below(1 << 24), (i * 7919) % 1_200_001))
+            .collect();
+        far.push((u64::MAX >> 1, 1_200_000));
+        check(far);
+        // Points of a surface: every key in a few narrow bands, with duplicates.
+        check(
+            (0..400_000u32)
+                .map(|i| ((rng.below(8) << 50) + rng.below(1 << 12) * 977, i))
+                .collect(),
+        );
     }
 
     #[test]
@@ -211,5 +337,32 @@ mod tests {
         assert_eq!(buckets.covering(0), 0);
         assert_eq!(buckets.covering(1), 1);
         assert_eq!(buckets.covering(pairs.len()), buckets.len());
+    }
+
+    /// Sort time of a spilled run's worth of surface points (5 M, a terrain seen from above):
+    /// `cargo test --release -p pointlet-store --lib sort_time -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a timing, not a check"]
+    fn sort_time_of_surface_points() {
+        let grid = pointlet_core::codes::KeyGrid::new(&pointlet_core::Aabb {
+            min: [0.0; 3],
+            max: [1000.0, 1000.0, 100.0],
+        });
+        let mut rng = SplitMix64::new(5);
+        let pairs: Vec<Pair> = (0..5_000_000u32)
+            .map(|i| {
+                let (x, y) = (rng.below(1 << 20) as f64, rng.below(1 << 20) as f64);
+                let (x, y) = (x / 1048.576, y / 1048.576);
+                let z = 50.0 + 20.0 * (x / 90.0).sin() * (y / 70.0).cos();
+                (grid.hilbert([x, y, z]), i)
+            })
+            .collect();
+        let mut scratch = Vec::new();
+        for round in 0..5 {
+            let mut p = pairs.clone();
+            let t = std::time::Instant::now();
+            sort_pairs_with(&mut p, &mut scratch);
+            eprintln!("round {round}: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        }
     }
 }

@@ -442,7 +442,8 @@ fn build_parts(out: &std::path::Path, c: BuildConfig, parts: &Parts, n: usize) -
 #[test]
 fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
     let dir = tempfile::tempdir().unwrap();
-    // Enough points for the radix pass of the in-memory sort; parts of uneven sizes.
+    // Enough points for the radix pass of the in-memory sort and for several stretches of
+    // buckets sorted while the previous is written; parts of uneven sizes.
     let n = 150_000;
     let input = batches(RGB_GPS_EXTRA, n, 9_973, 4);
     let parts = Parts(
