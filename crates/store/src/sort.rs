@@ -79,8 +79,15 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     if n < SMALL {
         return Buckets { starts: vec![0, n] };
     }
-    match scatter(pairs, scratch) {
+    scratch.clear();
+    scratch.reserve_exact(n);
+    crate::pio::huge_pages(scratch);
+    let dst = SharedOut(scratch.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
+    // SAFETY: the spare capacity holds n pairs.
+    match unsafe { scatter(pairs, &dst) } {
         Some(starts) => {
+            // SAFETY: the scatter wrote every one of the n slots exactly once.
+            unsafe { scratch.set_len(n) };
             std::mem::swap(pairs, scratch);
             Buckets { starts }
         }
@@ -88,10 +95,13 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     }
 }
 
-/// One parallel radix pass: writes `pairs` into `out` by the top varying bits of their keys
-/// (stable inside a bucket) and returns the bucket boundaries; `None` when every key is the
-/// same (nothing written).
-fn scatter(pairs: &[Pair], out: &mut Vec<Pair>) -> Option<Vec<usize>> {
+/// One parallel radix pass: writes `pairs` to `dst` by the top varying bits of their keys
+/// (stable inside a bucket), every one of `pairs.len()` slots once, and returns the bucket
+/// boundaries; `None` when every key is the same (nothing written).
+///
+/// # Safety
+/// `dst` must be valid for writes of `pairs.len()` pairs that nothing else touches meanwhile.
+unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
     let n = pairs.len();
     let (min, max) = pairs
         .par_iter()
@@ -129,25 +139,18 @@ fn scatter(pairs: &[Pair], out: &mut Vec<Pair>) -> Option<Vec<usize>> {
         }
     }
     starts.push(at);
-    out.clear();
-    out.reserve_exact(n);
-    crate::pio::huge_pages(out);
-    let dst = SharedOut(out.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
     pairs
         .par_chunks(chunk)
         .zip(offsets.into_par_iter())
         .for_each(|(c, mut off)| {
-            let dst = &dst;
             for p in c {
                 let b = bucket(p.0);
                 // SAFETY: the offsets give every (chunk, bucket) its own range of slots, all
-                // below n (they add up to n), so no two writes touch the same slot.
+                // below n (they add up to n), and the caller gives n writable slots.
                 unsafe { dst.0.add(off[b]).write(*p) };
                 off[b] += 1;
             }
         });
-    // SAFETY: the scatter wrote every one of the n slots exactly once.
-    unsafe { out.set_len(n) };
     Some(starts)
 }
 
@@ -156,7 +159,8 @@ pub(crate) fn sort_buckets(pairs: &mut [Pair], buckets: &Buckets, range: std::op
     sort_buckets_at(pairs, 0, buckets, range);
 }
 
-/// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array.
+/// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array. Each task
+/// keeps one second array for the buckets it sorts, as long as the longest of them.
 pub(crate) fn sort_buckets_at(
     pairs: &mut [Pair],
     base: usize,
@@ -167,15 +171,39 @@ pub(crate) fn sort_buckets_at(
         return;
     }
     let (lo, hi) = (buckets.starts[range.start], buckets.starts[range.end]);
+    bucket_slices(&mut pairs[lo - base..hi - base], buckets, range)
+        .into_par_iter()
+        .for_each_init(Vec::new, |tmp, s| {
+            if tmp.len() < s.len() {
+                tmp.resize(s.len(), (0, 0));
+            }
+            sort_bucket(s, &mut tmp[..s.len()]);
+        });
+}
+
+/// [`sort_buckets`] of every bucket, with `tmp` (as long as `pairs`) as the second array.
+fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Buckets) {
+    let all = 0..buckets.len();
+    bucket_slices(pairs, buckets, all.clone())
+        .into_par_iter()
+        .zip(bucket_slices(tmp, buckets, all))
+        .for_each(|(s, t)| sort_bucket(s, t));
+}
+
+/// `pairs` (buckets `range` of a bucketed array, nothing else) cut at the bucket boundaries.
+fn bucket_slices<'a>(
+    mut pairs: &'a mut [Pair],
+    buckets: &Buckets,
+    range: std::ops::Range<usize>,
+) -> Vec<&'a mut [Pair]> {
     let mut slices = Vec::with_capacity(range.len());
-    let mut rest = &mut pairs[lo - base..hi - base];
     for b in range {
         let len = buckets.starts[b + 1] - buckets.starts[b];
-        let (head, tail) = std::mem::take(&mut rest).split_at_mut(len);
+        let (head, tail) = std::mem::take(&mut pairs).split_at_mut(len);
         slices.push(head);
-        rest = tail;
+        pairs = tail;
     }
-    slices.into_par_iter().for_each_init(Vec::new, sort_bucket);
+    slices
 }
 
 /// Below this many pairs a comparison sort finishes a bucket.
@@ -188,7 +216,7 @@ const LARGE: usize = 1 << 20;
 /// sub-bucket) down to sub-buckets of at most [`LEAF`] pairs, which a comparison sort finishes
 /// in the cache. Buckets come out larger than planned where keys cluster below the sample's
 /// resolution.
-fn sort_bucket(tmp: &mut Vec<Pair>, s: &mut [Pair]) {
+fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     let n = s.len();
     if n <= LEAF {
         // Pairs are unique, so the unstable sort of (key, index) gives the one order.
@@ -196,15 +224,15 @@ fn sort_bucket(tmp: &mut Vec<Pair>, s: &mut [Pair]) {
         return;
     }
     if n > LARGE {
-        let mut out = Vec::new();
-        let Some(starts) = scatter(s, &mut out) else {
+        let dst = SharedOut(tmp.as_mut_ptr());
+        // SAFETY: `tmp` holds n pairs, borrowed mutably here only.
+        let Some(starts) = (unsafe { scatter(s, &dst) }) else {
             return s.par_sort_unstable();
         };
         s.par_chunks_mut(SMALL)
-            .zip(out.par_chunks(SMALL))
+            .zip(tmp.par_chunks(SMALL))
             .for_each(|(a, b)| a.copy_from_slice(b));
-        let buckets = Buckets { starts };
-        return sort_buckets(s, &buckets, 0..buckets.len());
+        return sort_buckets_in(s, tmp, &Buckets { starts });
     }
     let (min, max) = s
         .iter()
@@ -223,8 +251,6 @@ fn sort_bucket(tmp: &mut Vec<Pair>, s: &mut [Pair]) {
     for b in 1..starts.len() {
         starts[b] += starts[b - 1];
     }
-    tmp.clear();
-    tmp.resize(n, (0, 0));
     let mut at = starts.clone();
     for p in s.iter() {
         let b = ((p.0 >> shift) - base) as usize;
@@ -233,7 +259,7 @@ fn sort_bucket(tmp: &mut Vec<Pair>, s: &mut [Pair]) {
     }
     s.copy_from_slice(tmp);
     for w in starts.windows(2) {
-        sort_bucket(tmp, &mut s[w[0]..w[1]]);
+        sort_bucket(&mut s[w[0]..w[1]], &mut tmp[w[0]..w[1]]);
     }
 }
 
@@ -246,7 +272,13 @@ pub(crate) fn sort_pairs(pairs: &mut Vec<Pair>) {
 /// another reuses it instead of faulting in fresh pages).
 pub(crate) fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
     let buckets = partition(pairs, scratch);
-    sort_buckets(pairs, &buckets, 0..buckets.len());
+    if scratch.len() == pairs.len() {
+        // The radix pass's first array is free now: the buckets' sorts use it, so a spilled
+        // run's sort needs no memory beyond the two arrays the budget counts.
+        sort_buckets_in(pairs, scratch, &buckets);
+    } else {
+        sort_buckets(pairs, &buckets, 0..buckets.len());
+    }
 }
 
 /// The scatter's output, shared by the threads that write disjoint slots of it.
@@ -262,8 +294,16 @@ mod tests {
     fn check(mut pairs: Vec<Pair>) {
         let mut want = pairs.clone();
         want.sort_unstable();
+        // As the in-memory build sorts: bucketed, then two stretches of buckets on their own.
+        let mut stretched = pairs.clone();
+        let buckets = partition(&mut stretched, &mut Vec::new());
+        let half = buckets.len() / 2;
+        let (first, rest) = stretched.split_at_mut(buckets.starts[half]);
+        sort_buckets(first, &buckets, 0..half);
+        sort_buckets_at(rest, buckets.starts[half], &buckets, half..buckets.len());
+        assert!(stretched == want, "sorted in stretches");
         sort_pairs(&mut pairs);
-        assert_eq!(pairs, want);
+        assert!(pairs == want, "sorted at once");
     }
 
     #[test]
