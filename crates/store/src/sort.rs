@@ -345,7 +345,12 @@ mod tests {
         // Pairs out of index order, and a far outlier that leaves almost every pair in one
         // top bucket (split again by a parallel pass).
         let mut far: Vec<Pair> = (0..1_200_000)
-            .map(|i| ((1 << 40) + rng.below(1 << 24), (i * 7919) % 1_200_001))
+            .map(|i: u32| {
+                (
+                    (1 << 40) + rng.below(1 << 24),
+                    (i as u64 * 7919 % 1_200_001) as u32,
+                )
+            })
             .collect();
         far.push((u64::MAX >> 1, 1_200_000));
         check(far);
