@@ -714,22 +714,19 @@ impl StoreBuilder {
                 while p0 < pointlets {
                     let ready = buckets.starts[sorted];
                     let (done, rest) = pairs.split_at_mut(ready);
-                    let next = if sorted < buckets.len() {
-                        stretch_end(sorted)
-                    } else {
-                        sorted
-                    };
+                    // Past the last bucket this stays at the end: nothing left to sort.
+                    let next = stretch_end(sorted);
                     let emit = || -> Result<u64, StoreError> {
+                        let source = Source::Run {
+                            records,
+                            order: done,
+                        };
                         let mut p = p0;
                         while p < pointlets {
                             let p1 = (p + block_pointlets).min(pointlets);
                             if (p1 * k).min(n) as usize > ready {
                                 break;
                             }
-                            let source = Source::Run {
-                                records,
-                                order: done,
-                            };
                             em.block(p, p1, &source)?;
                             report(&progress, BuildPhase::Writing, (p1 * k).min(n), n);
                             p = p1;

@@ -272,13 +272,11 @@ pub(crate) fn sort_pairs(pairs: &mut Vec<Pair>) {
 /// another reuses it instead of faulting in fresh pages).
 pub(crate) fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
     let buckets = partition(pairs, scratch);
-    if scratch.len() == pairs.len() {
-        // The radix pass's first array is free now: the buckets' sorts use it, so a spilled
-        // run's sort needs no memory beyond the two arrays the budget counts.
-        sort_buckets_in(pairs, scratch, &buckets);
-    } else {
-        sort_buckets(pairs, &buckets, 0..buckets.len());
-    }
+    // The radix pass's first array (already `pairs.len()` long after a scatter) is free now:
+    // the buckets' sorts use it, so a spilled run's sort needs no memory beyond the two arrays
+    // the budget counts.
+    scratch.resize(pairs.len(), (0, 0));
+    sort_buckets_in(pairs, scratch, &buckets);
 }
 
 /// The scatter's output, shared by the threads that write disjoint slots of it.
