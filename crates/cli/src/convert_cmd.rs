@@ -121,9 +121,13 @@ pub fn run(args: Args) -> Result<()> {
         readers,
     )?;
     let secs = started.elapsed().as_secs_f64();
+    let writes = match summary.timings.writer_busy {
+        Some(busy) => format!("the writers were busy {:.2} s in all", busy.as_secs_f64()),
+        None => "written through a mapping of the file".to_string(),
+    };
     eprintln!(
         "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({}; reading {:.2} s, sorting \
-         {:.2} s, writing {:.2} s; the writers were busy {:.2} s in all)",
+         {:.2} s, writing {:.2} s; {writes})",
         args.output.display(),
         summary.points,
         summary.pointlets,
@@ -134,7 +138,6 @@ pub fn run(args: Args) -> Result<()> {
         summary.timings.reading.as_secs_f64(),
         summary.timings.sorting.as_secs_f64(),
         summary.timings.writing.as_secs_f64(),
-        summary.timings.writer_busy.as_secs_f64(),
     );
     Ok(())
 }

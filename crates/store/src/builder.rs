@@ -101,8 +101,9 @@ pub struct BuildTimings {
     /// Merging (out of core), shuffling and writing the store.
     pub writing: std::time::Duration,
     /// The time the writer threads spent in writes during `writing`, added over the threads
-    /// (they wait for blocks otherwise).
-    pub writer_busy: std::time::Duration,
+    /// (they wait for blocks otherwise); `None` when the store was written through a mapping,
+    /// by the threads that computed it.
+    pub writer_busy: Option<std::time::Duration>,
 }
 
 /// A keying task's result: raw bounds of its points, or the first bad point and why.
@@ -170,6 +171,20 @@ pub struct StoreBuilder {
     raw_min: [i32; 3],
     raw_max: [i32; 3],
     failed: bool,
+    write_map: WriteMapUse,
+}
+
+/// When an in-memory build writes the store through a mapping ([`pio::WriteMap`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum WriteMapUse {
+    /// Where the kernel gives the file 2 MiB pages (faster than buffered writes only then).
+    HugePages,
+    /// Wherever the file can be mapped (tests: the mapping's path on any kernel).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Always,
+    /// Never (tests: the writer threads' path).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Never,
 }
 
 /// Sizes derived from the budget: the I/O chunk, the points a run may hold, and whether runs
@@ -302,6 +317,7 @@ impl StoreBuilder {
             raw_min: [i32::MAX; 3],
             raw_max: [i32::MIN; 3],
             failed: false,
+            write_map: WriteMapUse::HugePages,
         })
     }
 
@@ -661,8 +677,18 @@ impl StoreBuilder {
             let p = output.clone();
             move |e| StoreError::io(&p, what, e)
         };
-        pio::allocate(&file, plan.file_len).map_err(io("reserving disk space for the output"))?;
+        let reserved = pio::allocate(&file, plan.file_len)
+            .map_err(io("reserving disk space for the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
+        // In memory, blocks go out in order and their pages leave the process as they are
+        // written; out of core, many key ranges write at once and keep the file's buffered
+        // writes, within the merge's budget.
+        let map = match self.write_map {
+            WriteMapUse::Never => None,
+            _ if spilled => None,
+            WriteMapUse::HugePages => pio::WriteMap::new(&file, plan.file_len, reserved, true),
+            WriteMapUse::Always => pio::WriteMap::new(&file, plan.file_len, reserved, false),
+        };
         let out = EmitPlan {
             file: &file,
             path: &output,
@@ -672,6 +698,7 @@ impl StoreBuilder {
             points: n,
             seed: self.seed,
             quantization: self.quantization,
+            map: map.as_ref(),
         };
         let rb = self.rl.len;
         let progress = self.progress.clone();
@@ -717,16 +744,27 @@ impl StoreBuilder {
                     // Past the last bucket this stays at the end: nothing left to sort.
                     let next = stretch_end(sorted);
                     let emit = || -> Result<u64, StoreError> {
+                        // The last stretch's pages leave the process while this one computes.
+                        em.release_before(p0);
                         let source = Source::Run {
                             records,
                             order: done,
                         };
+                        let whole = if ready as u64 == n {
+                            pointlets
+                        } else {
+                            ready as u64 / k
+                        };
+                        // Into a mapping the whole stretch is one block: every core on it, no
+                        // waits for a block's last pointlets (1.7 against 2.1 s, GPU machine).
+                        let step = if map.is_some() {
+                            pointlets
+                        } else {
+                            block_pointlets
+                        };
                         let mut p = p0;
-                        while p < pointlets {
-                            let p1 = (p + block_pointlets).min(pointlets);
-                            if (p1 * k).min(n) as usize > ready {
-                                break;
-                            }
+                        while p < whole {
+                            let p1 = (p + step).min(whole);
                             em.block(p, p1, &source)?;
                             report(&progress, BuildPhase::Writing, (p1 * k).min(n), n);
                             p = p1;
@@ -747,6 +785,8 @@ impl StoreBuilder {
                 Ok(())
             })?
         };
+        // Unmapped before the preamble is written and the file closed.
+        drop(map);
         pio::discard(std::mem::take(&mut self.run.records));
         pio::discard(std::mem::take(&mut self.run.pairs));
         let preamble = Preamble {
@@ -1124,4 +1164,88 @@ fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
         }
         *key = grid.hilbert(q.dequantize(raw));
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pointlet_core::shuffle::SplitMix64;
+
+    /// Builds `n` clustered points with `write_map`; the store's bytes and whether the writer
+    /// threads wrote them.
+    fn build(dir: &Path, n: usize, write_map: WriteMapUse) -> (Vec<u8>, bool) {
+        let layout = PointLayout {
+            gps_time: true,
+            rgb: true,
+            ..Default::default()
+        };
+        let bounds = Aabb {
+            min: [0.0; 3],
+            max: [1000.0, 1000.0, 50.0],
+        };
+        let meta = SourceMeta {
+            format: "synthetic".into(),
+            point_count: n as u64,
+            bounds,
+            quantization: Some(Quantization {
+                scale: [0.001; 3],
+                offset: [0.0; 3],
+            }),
+            layout,
+            las_point_format: None,
+            vlrs: Vec::new(),
+            las: None,
+        };
+        let out = dir.join(format!("{write_map:?}.pointlet"));
+        let config = BuildConfig {
+            ram_budget: 1 << 30,
+            target_pointlets: 2_000,
+            ..Default::default()
+        };
+        let mut builder =
+            StoreBuilder::create(&out, config, &meta, vec!["synthetic".into()]).expect("create");
+        builder.write_map = write_map;
+        let mut rng = SplitMix64::new(5);
+        let mut batch = PointBatch::with_capacity(layout, n);
+        for i in 0..n {
+            // A few dense clusters, as surfaces fill a small share of the key space.
+            let c = rng.below(6) as f64 * 150.0;
+            batch.xyz.push([
+                c + rng.unit_f64() * 40.0,
+                c + rng.unit_f64() * 40.0,
+                rng.unit_f64() * 5.0,
+            ]);
+            batch.intensity.push(i as u16);
+            batch.returns.push(0x11);
+            batch.flags.push(0);
+            batch.classification.push((i % 7) as u8);
+            batch.scan_angle.push(0.0);
+            batch.user_data.push(0);
+            batch.point_source_id.push(1);
+            batch.gps_time.push(i as f64);
+            batch.rgb.push([i as u16, 0, 7]);
+        }
+        builder.push(&batch).expect("push");
+        let summary = builder.finish().expect("finish");
+        assert_eq!(summary.runs, 0, "built in memory");
+        let bytes = std::fs::read(&out).expect("read back");
+        (bytes, summary.timings.writer_busy.is_some())
+    }
+
+    #[test]
+    fn a_mapped_store_file_is_written_like_a_buffered_one() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        // Several sort stretches and blocks, a store of several 2 MiB pages.
+        let n = 400_000;
+        let (buffered, by_writers) = build(dir.path(), n, WriteMapUse::Never);
+        assert!(by_writers);
+        let (mapped, by_writers) = build(dir.path(), n, WriteMapUse::Always);
+        // Linux file systems that reserve space (ext4, xfs, btrfs, tmpfs) take the mapping.
+        if cfg!(target_os = "linux") {
+            assert!(!by_writers, "the store was not written through a mapping");
+        }
+        assert!(buffered == mapped, "the mapped store differs");
+        let (either, _) = build(dir.path(), n, WriteMapUse::HugePages);
+        assert!(buffered == either, "the default build differs");
+    }
 }

@@ -16,8 +16,9 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-/// Threads writing blocks into the store file at once: one file's buffered writes take 3.1
-/// GB/s from one thread and 5.3 from two on the GPU machine, and no more from four.
+/// Threads writing blocks into the store file at once, where it is not mapped: one file's
+/// buffered writes take 3.1 GB/s from one thread and 5.3 from two on the GPU machine, and no
+/// more from four.
 const WRITERS: usize = 2;
 
 /// Where each stream's value sits inside a record.
@@ -233,6 +234,20 @@ pub(crate) struct EmitPlan<'a> {
     pub points: u64,
     pub seed: u64,
     pub quantization: Quantization,
+    /// The file mapped for writing: the emitting threads copy into it themselves, with no
+    /// writer threads.
+    pub map: Option<&'a pio::WriteMap>,
+}
+
+impl EmitPlan<'_> {
+    /// Where pointlet `p0`'s table row and stream checksums lie.
+    fn table_offsets(&self, p0: u64) -> (u64, u64) {
+        let streams = self.rl.fields.len() as u64;
+        (
+            self.plan.table.offset + p0 * TABLE_ENTRY_LEN,
+            self.plan.checksums.offset + p0 * 4 * streams,
+        )
+    }
 }
 
 /// State the emitter shares with its writer threads.
@@ -245,6 +260,9 @@ struct Shared {
     failed: Mutex<Option<StoreError>>,
     /// Nanoseconds the writers spent writing, added (the rest they waited for blocks).
     busy_ns: AtomicU64,
+    /// One bit per pointlet, set when a block claims it: no pointlet is computed twice, which
+    /// also keeps the parts of a mapped file that blocks write apart.
+    claimed: Vec<AtomicU64>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -253,8 +271,9 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 }
 
 /// Writes the streams, pointlet table and checksum table of a store being built. Blocks of
-/// whole pointlets may be emitted from any thread and in any order. [`WRITERS`] threads write
-/// them in place while the callers compute the next ones.
+/// whole pointlets may be emitted from any thread and in any order. Into a mapped file the
+/// threads computing a block write it; otherwise [`WRITERS`] threads write blocks in place
+/// while the callers compute the next ones.
 pub(crate) struct Emitter<'a> {
     out: &'a EmitPlan<'a>,
     shared: &'a Shared,
@@ -268,19 +287,25 @@ type PointletResult = (PointletEntry, Vec<u32>);
 impl<'a> Emitter<'a> {
     /// Runs `body` with an emitter, then waits for every write. Returns the body's result and
     /// the CRC32s of the pointlet table and of the checksum table; fails unless the body
-    /// emitted every pointlet exactly once. Also returns how long the writers were busy, added
-    /// over the threads.
+    /// emitted every pointlet exactly once. Also returns how long the writer threads were
+    /// busy, added over the threads (none with a mapped file).
     pub fn run<R>(
         out: &EmitPlan<'_>,
         body: impl FnOnce(&Emitter<'_>) -> Result<R, StoreError>,
-    ) -> Result<(R, u32, u32, Duration), StoreError> {
+    ) -> Result<(R, u32, u32, Option<Duration>), StoreError> {
         let pointlets = out.points.div_ceil(out.k);
-        let shared = Shared::default();
+        let shared = Shared {
+            claimed: (0..pointlets.div_ceil(64))
+                .map(|_| AtomicU64::new(0))
+                .collect(),
+            ..Default::default()
+        };
         // Two blocks queued keep the writers busy while bounding the memory in flight.
         let (jobs, queue) = sync_channel::<WriteJob>(2);
         let queue = Mutex::new(queue);
+        let writer_count = if out.map.is_some() { 0 } else { WRITERS };
         let result = std::thread::scope(|scope| {
-            let writers: Vec<_> = (0..WRITERS)
+            let writers: Vec<_> = (0..writer_count)
                 .map(|_| scope.spawn(|| write_loop(out, &shared, &queue)))
                 .collect();
             let emitter = Emitter {
@@ -324,6 +349,7 @@ impl<'a> Emitter<'a> {
             ));
         }
         let busy = Duration::from_nanos(shared.busy_ns.load(Ordering::Relaxed));
+        let busy = out.map.is_none().then_some(busy);
         Ok((result, table.finalize(), checks.finalize(), busy))
     }
 
@@ -360,9 +386,33 @@ impl<'a> Emitter<'a> {
                 format!("internal error: pointlets {p0}..{p1} do not exist"),
             ));
         }
+        self.claim(p0, p1)?;
         let a = p0 * o.k;
         let n = ((p1 * o.k).min(o.points) - a) as usize;
         let rl = o.rl;
+        if let Some(map) = o.map {
+            let mut outs = Vec::with_capacity(rl.fields.len());
+            for (info, (_, _, bpp)) in o.plan.streams.iter().zip(&rl.fields) {
+                let at = info.offset + a * info.bytes_per_point as u64;
+                // SAFETY: the streams' ranges in the plan are apart, and this block's points
+                // were claimed once above.
+                outs.push(unsafe { map.slice(at, n * bpp) }.ok_or_else(|| self.outside())?);
+            }
+            let results = self.compute(p0, p1, source, &mut outs);
+            let (table, checks) = self.finish(p0, p1, &results);
+            let (table_at, checks_at) = o.table_offsets(p0);
+            // SAFETY: the table rows and checksums of the claimed pointlets, apart from the
+            // streams in the plan.
+            unsafe {
+                map.slice(table_at, table.len())
+                    .ok_or_else(|| self.outside())?
+                    .copy_from_slice(&table);
+                map.slice(checks_at, checks.len())
+                    .ok_or_else(|| self.outside())?
+                    .copy_from_slice(&checks);
+            }
+            return Ok(());
+        }
         let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
         streams.resize_with(rl.fields.len(), Vec::new);
         // Every byte is overwritten: reused buffers of the right size are not zeroed again.
@@ -381,6 +431,39 @@ impl<'a> Emitter<'a> {
                 checks,
             })
             .map_err(|_| self.writer_stopped())
+    }
+
+    /// Marks pointlets `[p0, p1)` emitted; fails if any was before.
+    fn claim(&self, p0: u64, p1: u64) -> Result<(), StoreError> {
+        for p in p0..p1 {
+            let bit = 1u64 << (p % 64);
+            if self.shared.claimed[(p / 64) as usize].fetch_or(bit, Ordering::Relaxed) & bit != 0 {
+                return Err(StoreError::build(
+                    self.out.path,
+                    format!("internal error: pointlet {p} emitted twice"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn outside(&self) -> StoreError {
+        StoreError::build(
+            self.out.path,
+            "internal error: a block lies outside the file's plan",
+        )
+    }
+
+    /// Gives the mapped pages of the points before pointlet `p` back to the page cache: they
+    /// are written. Nothing without a mapping.
+    pub fn release_before(&self, p: u64) {
+        let o = self.out;
+        if let Some(map) = o.map {
+            let points = (p * o.k).min(o.points);
+            for info in &o.plan.streams {
+                map.release(info.offset, points * info.bytes_per_point as u64);
+            }
+        }
     }
 
     /// The table rows and stream checksums of block `[p0, p1)`, whose CRCs join the store's.
@@ -471,7 +554,6 @@ impl<'a> Emitter<'a> {
 /// and hands the stream buffers back for reuse. Stops at the first error.
 fn write_loop(out: &EmitPlan<'_>, shared: &Shared, queue: &Mutex<Receiver<WriteJob>>) {
     let plan = out.plan;
-    let streams = out.rl.fields.len() as u64;
     loop {
         // Held while waiting for a job, not while writing it: the other writer writes on.
         let Ok(job) = lock(queue).recv() else { return };
@@ -492,8 +574,7 @@ fn write_loop(out: &EmitPlan<'_>, shared: &Shared, queue: &Mutex<Receiver<WriteJ
                 })
             });
         }
-        let table_at = plan.table.offset + job.p0 * TABLE_ENTRY_LEN;
-        let checks_at = plan.checksums.offset + job.p0 * 4 * streams;
+        let (table_at, checks_at) = out.table_offsets(job.p0);
         let result = result
             .and_then(|()| {
                 pio::write_all_at(out.file, &job.table, table_at)
@@ -555,6 +636,7 @@ mod tests {
                 scale: [1.0; 3],
                 offset: [0.0; 3],
             },
+            map: None,
         };
         let records = vec![0u8; points as usize * rl.len];
         Emitter::run(&out, |em| {
@@ -574,15 +656,15 @@ mod tests {
     #[test]
     fn every_pointlet_must_be_emitted_exactly_once() {
         assert_eq!(emit_blocks(&[(2, 5), (0, 2)]), None);
-        for blocks in [
-            &[(0, 2), (2, 5), (2, 5)][..],
-            &[(0, 2), (0, 2), (2, 5)],
-            &[(0, 3), (2, 5)],
-            &[(0, 2), (3, 5)],
-            &[(0, 2), (2, 4)],
+        for (blocks, error) in [
+            (&[(0, 2), (2, 5), (2, 5)][..], "pointlet 2 emitted twice"),
+            (&[(0, 2), (0, 2), (2, 5)], "pointlet 0 emitted twice"),
+            (&[(0, 3), (2, 5)], "pointlet 2 emitted twice"),
+            (&[(0, 2), (3, 5)], "do not cover 0..5 once"),
+            (&[(0, 2), (2, 4)], "do not cover 0..5 once"),
         ] {
             let e = emit_blocks(blocks).expect("an error");
-            assert!(e.contains("do not cover 0..5 once"), "{blocks:?}: {e}");
+            assert!(e.contains(error), "{blocks:?}: {e}");
         }
     }
 

@@ -219,9 +219,7 @@ const LARGE: usize = 1 << 20;
 fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     let n = s.len();
     if n <= LEAF {
-        // Pairs are unique, so the unstable sort of (key, index) gives the one order.
-        s.sort_unstable();
-        return;
+        return sort_leaf(s);
     }
     if n > LARGE {
         let dst = SharedOut(tmp.as_mut_ptr());
@@ -260,6 +258,44 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     s.copy_from_slice(tmp);
     for w in starts.windows(2) {
         sort_bucket(&mut s[w[0]..w[1]], &mut tmp[w[0]..w[1]]);
+    }
+}
+
+/// Sorts at most [`LEAF`] pairs. Where their keys span less than 2^56 (nearly always, below
+/// the radix passes), each pair's key offset and its place in the leaf pack into one `u64`:
+/// plain integers sort without unpredictable branches, (key, index) tuples do not. Equal keys
+/// come out in leaf order, and get index order after.
+fn sort_leaf(s: &mut [Pair]) {
+    if s.len() < 2 {
+        return;
+    }
+    let (min, max) = s
+        .iter()
+        .fold((u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)));
+    if max - min >= 1 << 56 || s.len() > LEAF {
+        // Pairs are unique, so the unstable sort of (key, index) gives the one order.
+        return s.sort_unstable();
+    }
+    let mut packed = [0u64; LEAF];
+    let packed = &mut packed[..s.len()];
+    for (j, (q, p)) in packed.iter_mut().zip(s.iter()).enumerate() {
+        *q = (p.0 - min) << 8 | j as u64;
+    }
+    packed.sort_unstable();
+    let mut copy = [(0u64, 0u32); LEAF];
+    let copy = &mut copy[..s.len()];
+    copy.copy_from_slice(s);
+    for (p, q) in s.iter_mut().zip(packed.iter()) {
+        *p = copy[(*q & 0xFF) as usize];
+    }
+    // Runs of equal keys (points given twice) in index order.
+    let mut i = 0;
+    while i < s.len() {
+        let run = s[i..].iter().take_while(|p| p.0 == s[i].0).count();
+        if run > 1 {
+            s[i..i + run].sort_unstable_by_key(|p| p.1);
+        }
+        i += run;
     }
 }
 
