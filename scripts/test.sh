@@ -5,12 +5,19 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # A one-off build gains nothing from incremental caches, which only cost disk.
 export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
-bash scripts/ensure-vulkan.sh
-bash scripts/ensure-xvfb.sh
-bash scripts/ensure-moto.sh
-# Chromium and the pinned CesiumJS + playwright-core of the 3D Tiles load test (about 1.5 min the
-# first time, nothing after).
-bash scripts/ensure-cesium.sh
+# What the tests need besides the build (mostly downloads: apt, pip, npm) installs while the
+# tests build: Mesa's CPU Vulkan driver, Xvfb, the S3 server, and Chromium with the pinned
+# CesiumJS + playwright-core of the 3D Tiles load test (minutes the first time, nothing after).
+services_log=$(mktemp)
+(
+    bash scripts/ensure-vulkan.sh
+    bash scripts/ensure-xvfb.sh
+    bash scripts/ensure-moto.sh
+    bash scripts/ensure-cesium.sh
+) >"$services_log" 2>&1 &
+services=$!
+# A failed build still lets a half-done package install finish.
+trap 'wait "$services" 2>/dev/null || true; rm -f "$services_log"' EXIT
 cargo fmt --all -- --check
 # Clippy lints the workspace while the tests are built, as `cargo clippy` does it (clippy-driver
 # compiles the workspace's crates; warnings, clippy's included, are errors; dependencies' lints
@@ -19,4 +26,10 @@ cargo fmt --all -- --check
 export RUSTC_WORKSPACE_WRAPPER="${RUSTC_WORKSPACE_WRAPPER:-clippy-driver}"
 export RUSTFLAGS="${RUSTFLAGS:-} -D warnings"
 cargo test --workspace --all-targets --locked --no-run
+if ! wait "$services"; then
+    cat "$services_log" >&2
+    echo "error: installing what the tests need failed (above)" >&2
+    exit 1
+fi
+cat "$services_log"
 cargo test --workspace --locked
