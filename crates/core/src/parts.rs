@@ -84,6 +84,25 @@ pub trait PartedSource: Sync {
         Ok(false)
     }
 
+    /// Decodes part `i` for a store quantized as `q`, when the part stores its positions as
+    /// integers of exactly `q` (a LAS or LAZ file of that scale and offset): its positions go
+    /// to `positions` as stored, its other columns to `out` as [`decode_part`] gives them, and
+    /// `out.xyz` stays empty (no round trip through f64). `Ok(false)`, with nothing decoded,
+    /// for any other quantization or source.
+    ///
+    /// [`decode_part`]: Self::decode_part
+    fn decode_part_stored(
+        &self,
+        i: usize,
+        q: &Quantization,
+        out: &mut PointBatch,
+        positions: &mut Vec<[i32; 3]>,
+        scratch: &mut Vec<u8>,
+    ) -> Result<bool, PartError> {
+        let _ = (i, q, out, positions, scratch);
+        Ok(false)
+    }
+
     /// `Some(k)` when the points come in groups of k (a power of two; the last group may be
     /// shorter), each group in random order, so that the first points of a group are a uniform
     /// sample of it: a store's pointlets. A progressive loader may then interleave the groups

@@ -107,6 +107,50 @@ fn parts_in_order_give_exactly_what_read_batch_gives() {
 }
 
 #[test]
+fn stored_positions_are_the_files_integers_with_the_same_other_columns() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for path in every_file(dir.path()) {
+        let r = pointlet_io::open(&path).expect("open");
+        let parts = parts_of(r.as_ref());
+        let q = r.meta().quantization.expect("LAS and LAZ are quantized");
+        let other = pointlet_core::Quantization {
+            scale: q.scale,
+            offset: [q.offset[0] + q.scale[0], q.offset[1], q.offset[2]],
+        };
+        let (mut scratch, mut positions) = (Vec::new(), Vec::new());
+        for (i, want) in parts_in_order(parts).into_iter().enumerate() {
+            let mut got = PointBatch::default();
+            let stored = parts
+                .decode_part_stored(i, &other, &mut got, &mut positions, &mut scratch)
+                .expect("decoded");
+            assert!(
+                !stored,
+                "{}: another quantization was taken",
+                path.display()
+            );
+            let stored = parts
+                .decode_part_stored(i, &q, &mut got, &mut positions, &mut scratch)
+                .expect("decoded");
+            assert!(stored, "{}: part {i} not decoded as stored", path.display());
+            assert!(got.xyz.is_empty());
+            let quantized: Vec<[i32; 3]> = want
+                .xyz
+                .iter()
+                .map(|p| q.quantize(*p).expect("in range"))
+                .collect();
+            assert!(
+                positions == quantized,
+                "{}: part {i} positions",
+                path.display()
+            );
+            // The other columns are those decode_part gives.
+            got.xyz = want.xyz.clone();
+            assert!(got == want, "{}: part {i} columns", path.display());
+        }
+    }
+}
+
+#[test]
 fn parts_in_any_order_and_from_several_threads_are_the_same() {
     let dir = tempfile::tempdir().expect("tempdir");
     for path in every_file(dir.path()) {

@@ -175,7 +175,7 @@ pub struct StoreBuilder {
 }
 
 /// When an in-memory build writes the store through a mapping ([`pio::WriteMap`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 enum WriteMapUse {
     /// Where the kernel gives the file 2 MiB pages (faster than buffered writes only then).
     HugePages,
@@ -421,25 +421,32 @@ impl StoreBuilder {
         let results: Vec<Result<RawBounds, StoreError>> = jobs
             .into_par_iter()
             .map_init(
-                || (PointBatch::default(), Vec::new()),
-                |(batch, scratch), (part, at, recs, pairs)| {
-                    source
-                        .decode_part(part, batch, scratch)
+                || (PointBatch::default(), Vec::new(), Vec::new()),
+                |(batch, positions, scratch), (part, at, recs, pairs)| {
+                    // Positions stored as integers of the store's quantization skip f64.
+                    let stored = source
+                        .decode_part_stored(part, &q, batch, positions, scratch)
                         .map_err(StoreError::Input)?;
-                    if batch.len() != pairs.len() || batch.layout.union(want) != want {
+                    if !stored {
+                        source
+                            .decode_part(part, batch, scratch)
+                            .map_err(StoreError::Input)?;
+                    }
+                    let decoded = if stored { positions.len() } else { batch.len() };
+                    if decoded != pairs.len() || batch.layout.union(want) != want {
                         return Err(StoreError::build(
                             output,
                             format!(
-                                "internal error: part {part} decoded to {} points of {:?}, \
-                                 expected {} of {want:?}",
-                                batch.len(),
+                                "internal error: part {part} decoded to {decoded} points of \
+                                 {:?}, expected {} of {want:?}",
                                 batch.layout,
                                 pairs.len()
                             ),
                         ));
                     }
                     let seq = pushed + (at - n0) as u64;
-                    let bounds = key_and_pack(batch, 0, q, grid, rl, at, recs, pairs)
+                    let stored = stored.then_some(positions.as_slice());
+                    let bounds = key_and_pack(batch, stored, 0, q, grid, rl, at, recs, pairs)
                         .map_err(|(i, m)| bad_point(output, seq + i as u64, m))?;
                     let d = done.fetch_add(pairs.len() as u64, Ordering::Relaxed);
                     if let Some(p) = progress {
@@ -541,8 +548,18 @@ impl StoreBuilder {
             .enumerate()
             .map(|(t, (recs, pairs))| {
                 let from = start + t * KEY_TASK;
-                key_and_pack(batch, from, q, grid, rl, n0 + t * KEY_TASK, recs, pairs)
-                    .map_err(|(i, m)| (from + i, m))
+                key_and_pack(
+                    batch,
+                    None,
+                    from,
+                    q,
+                    grid,
+                    rl,
+                    n0 + t * KEY_TASK,
+                    recs,
+                    pairs,
+                )
+                .map_err(|(i, m)| (from + i, m))
             })
             .collect();
         for r in results {
@@ -719,7 +736,14 @@ impl StoreBuilder {
             runs.into_par_iter().for_each(drop);
             merged?
         } else {
-            let block_pointlets = (self.io_chunk as u64 / (k * rb as u64)).max(1);
+            // Into a mapping a whole stretch is one block: every core on it, no waits for a
+            // block's last pointlets (1.7 against 2.1 s, GPU machine); buffered, blocks of about
+            // an I/O chunk keep the writers' memory bounded.
+            let step = if map.is_some() {
+                pointlets
+            } else {
+                (self.io_chunk as u64 / (k * rb as u64)).max(1)
+            };
             let (records, pairs) = (&self.run.records, &mut self.run.pairs);
             let mut scratch = Vec::new();
             let buckets = sort::partition(pairs, &mut scratch);
@@ -754,13 +778,6 @@ impl StoreBuilder {
                             pointlets
                         } else {
                             ready as u64 / k
-                        };
-                        // Into a mapping the whole stretch is one block: every core on it, no
-                        // waits for a block's last pointlets (1.7 against 2.1 s, GPU machine).
-                        let step = if map.is_some() {
-                            pointlets
-                        } else {
-                            block_pointlets
                         };
                         let mut p = p0;
                         while p < whole {
@@ -1095,11 +1112,13 @@ impl Router<'_> {
 }
 
 /// Quantizes, keys and packs points `from..from + pairs.len()` of `batch` into `recs` and
-/// `pairs` (run indices from `index`). Returns their raw bounds, or the offset (from `from`)
-/// of the first bad point and why.
+/// `pairs` (run indices from `index`); with `stored`, their positions are those integers (of
+/// `q`) instead of `batch.xyz`. Returns their raw bounds, or the offset (from `from`) of the
+/// first bad point and why.
 #[allow(clippy::too_many_arguments)]
 fn key_and_pack(
     batch: &PointBatch,
+    stored: Option<&[[i32; 3]]>,
     from: usize,
     q: Quantization,
     grid: KeyGrid,
@@ -1120,11 +1139,18 @@ fn key_and_pack(
     {
         let first = b * BLOCK;
         let raw = &mut raw[..pairs.len()];
-        let xyz = &batch.xyz[from + first..from + first + raw.len()];
-        for (j, (r, p)) in raw.iter_mut().zip(xyz).enumerate() {
-            *r = q
-                .quantize(*p)
-                .map_err(|e| (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
+        let rows = from + first..from + first + raw.len();
+        match stored {
+            Some(stored) => raw.copy_from_slice(&stored[rows]),
+            None => {
+                for (j, (r, p)) in raw.iter_mut().zip(&batch.xyz[rows]).enumerate() {
+                    *r = q.quantize(*p).map_err(|e| {
+                        (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2]))
+                    })?;
+                }
+            }
+        }
+        for r in raw.iter() {
             for a in 0..3 {
                 lo[a] = lo[a].min(r[a]);
                 hi[a] = hi[a].max(r[a]);

@@ -432,7 +432,49 @@ impl pointlet_core::PartedSource for Parts {
     }
 }
 
-fn build_parts(out: &std::path::Path, c: BuildConfig, parts: &Parts, n: usize) -> u64 {
+/// [`Parts`] that also give their positions as integers of `Q`, as LAS and LAZ files do.
+struct StoredParts(Parts);
+
+impl pointlet_core::PartedSource for StoredParts {
+    fn part_sizes(&self) -> &[u64] {
+        self.0.part_sizes()
+    }
+
+    fn decode_part(
+        &self,
+        i: usize,
+        out: &mut pointlet_core::PointBatch,
+        scratch: &mut Vec<u8>,
+    ) -> Result<(), pointlet_core::PartError> {
+        self.0.decode_part(i, out, scratch)
+    }
+
+    fn decode_part_stored(
+        &self,
+        i: usize,
+        q: &pointlet_core::Quantization,
+        out: &mut pointlet_core::PointBatch,
+        positions: &mut Vec<[i32; 3]>,
+        scratch: &mut Vec<u8>,
+    ) -> Result<bool, pointlet_core::PartError> {
+        if *q != Q {
+            return Ok(false);
+        }
+        self.0.decode_part(i, out, scratch)?;
+        positions.clear();
+        for p in std::mem::take(&mut out.xyz) {
+            positions.push(q.quantize(p)?);
+        }
+        Ok(true)
+    }
+}
+
+fn build_parts(
+    out: &std::path::Path,
+    c: BuildConfig,
+    parts: &dyn pointlet_core::PartedSource,
+    n: usize,
+) -> u64 {
     let m = meta(RGB_GPS_EXTRA, n as u64);
     let mut b = StoreBuilder::create(out, c, &m, vec!["synthetic".into()]).unwrap();
     b.push_parts(parts).unwrap();
@@ -458,6 +500,16 @@ fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
         &input,
     );
     let want = std::fs::read(&reference).unwrap();
+    // Positions as stored integers (no f64 round trip) give the same store.
+    let stored = StoredParts(Parts(parts.0.clone(), parts.1.clone()));
+    for budget in [1u64 << 30, 2 << 20] {
+        let out = dir.path().join(format!("stored-{budget}.pointlet"));
+        build_parts(&out, config(budget, 300, 5), &stored, n);
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "stored positions, budget {budget}: the store differs"
+        );
+    }
     for threads in [1, 3, 8] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -24,7 +24,7 @@ use super::{batch_points, decoder, read_exact_at};
 use crate::{IoError, PointReader};
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::{LazItem, LazItemType, LazVlr};
-use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
+use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use rayon::prelude::*;
 use std::cell::Cell;
 use std::fs::File;
@@ -257,6 +257,36 @@ impl PartedSource for LazReader {
         out: &mut PointBatch,
         scratch: &mut Vec<u8>,
     ) -> Result<(), PartError> {
+        let records = self.decompress_part(i, scratch)?;
+        out.clear(self.decoder.layout());
+        self.decoder.decode(records, out);
+        Ok(())
+    }
+
+    fn decode_part_stored(
+        &self,
+        i: usize,
+        q: &Quantization,
+        out: &mut PointBatch,
+        positions: &mut Vec<[i32; 3]>,
+        scratch: &mut Vec<u8>,
+    ) -> Result<bool, PartError> {
+        if self.decoder.quantization() != *q {
+            return Ok(false);
+        }
+        let records = self.decompress_part(i, scratch)?;
+        self.decoder.decode_stored(records, out, positions);
+        Ok(true)
+    }
+}
+
+impl LazReader {
+    /// Reads and decompresses chunk `i` in `scratch`; its records.
+    fn decompress_part<'s>(
+        &self,
+        i: usize,
+        scratch: &'s mut Vec<u8>,
+    ) -> Result<&'s [u8], PartError> {
         let Some(&c) = self.chunks.get(i) else {
             return Err(Box::new(IoError::invalid(
                 &self.path,
@@ -289,9 +319,7 @@ impl PartedSource for LazReader {
         })?;
         self.codec
             .decompress(&self.path, i, c, compressed, records)?;
-        out.clear(self.decoder.layout());
-        self.decoder.decode(records, out);
-        Ok(())
+        Ok(records)
     }
 }
 

@@ -14,7 +14,7 @@ pub use record::PointFormat;
 
 use crate::{IoError, PointReader};
 use header::FileSource;
-use pointlet_core::{PartError, PartedSource, PointBatch, SourceMeta};
+use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use record::Decoder;
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -225,6 +225,32 @@ impl PartedSource for LasReader {
         out: &mut PointBatch,
         scratch: &mut Vec<u8>,
     ) -> Result<(), PartError> {
+        self.read_part(i, scratch)?;
+        out.clear(self.decoder.layout());
+        self.decoder.decode(scratch, out);
+        Ok(())
+    }
+
+    fn decode_part_stored(
+        &self,
+        i: usize,
+        q: &Quantization,
+        out: &mut PointBatch,
+        positions: &mut Vec<[i32; 3]>,
+        scratch: &mut Vec<u8>,
+    ) -> Result<bool, PartError> {
+        if self.decoder.quantization() != *q {
+            return Ok(false);
+        }
+        self.read_part(i, scratch)?;
+        self.decoder.decode_stored(scratch, out, positions);
+        Ok(true)
+    }
+}
+
+impl LasReader {
+    /// Reads the records of part `i` into `scratch`.
+    fn read_part(&self, i: usize, scratch: &mut Vec<u8>) -> Result<(), PartError> {
         let (Some(&first_size), Some(&points)) = (self.part_sizes.first(), self.part_sizes.get(i))
         else {
             return Err(Box::new(IoError::invalid(
@@ -239,8 +265,6 @@ impl PartedSource for LasReader {
         // Part sizes fit in memory: they are bounded by PART_POINTS and MAX_PART_BYTES.
         scratch.resize(points as usize * len, 0);
         self.read_records(i as u64 * first_size, scratch)?;
-        out.clear(self.decoder.layout());
-        self.decoder.decode(scratch, out);
         Ok(())
     }
 }

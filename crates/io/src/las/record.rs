@@ -85,6 +85,16 @@ fn u16_at(r: &[u8], at: usize) -> u16 {
     u16::from_le_bytes(arr(r, at))
 }
 
+/// A record's position as stored: x, y, z integers.
+#[inline(always)]
+fn stored_position(r: &[u8]) -> [i32; 3] {
+    [
+        i32::from_le_bytes(arr(r, 0)),
+        i32::from_le_bytes(arr(r, 4)),
+        i32::from_le_bytes(arr(r, 8)),
+    ]
+}
+
 /// Decodes raw records of one format into batch columns.
 #[derive(Clone, Debug)]
 pub(crate) struct Decoder {
@@ -122,13 +132,29 @@ impl Decoder {
         }
     }
 
+    /// The quantization of the stored positions.
+    pub fn quantization(&self) -> Quantization {
+        self.q
+    }
+
+    /// Decodes every whole record of `raw` into `out` (cleared to [`Self::layout`]) but its
+    /// positions, which go to `positions` (cleared) as the records store them: integers of
+    /// [`quantization`](Self::quantization). `out.xyz` stays empty.
+    pub fn decode_stored(&self, raw: &[u8], out: &mut PointBatch, positions: &mut Vec<[i32; 3]>) {
+        out.clear(self.layout());
+        positions.clear();
+        for block in raw.chunks(BLOCK * self.record_len) {
+            let recs = block.chunks_exact(self.record_len);
+            positions.extend(recs.map(stored_position));
+            self.decode_attributes(block, out);
+        }
+    }
+
     fn decode_block(&self, block: &[u8], out: &mut PointBatch) {
-        let recs = || block.chunks_exact(self.record_len);
+        let recs = block.chunks_exact(self.record_len);
         let (s, o) = (self.q.scale, self.q.offset);
-        out.xyz.extend(recs().map(|r| {
-            let x = i32::from_le_bytes(arr(r, 0));
-            let y = i32::from_le_bytes(arr(r, 4));
-            let z = i32::from_le_bytes(arr(r, 8));
+        out.xyz.extend(recs.map(|r| {
+            let [x, y, z] = stored_position(r);
             // Same expression as the `las` crate, so both give identical f64 values.
             [
                 s[0] * f64::from(x) + o[0],
@@ -136,6 +162,12 @@ impl Decoder {
                 s[2] * f64::from(z) + o[2],
             ]
         }));
+        self.decode_attributes(block, out);
+    }
+
+    /// Every column but the positions.
+    fn decode_attributes(&self, block: &[u8], out: &mut PointBatch) {
+        let recs = || block.chunks_exact(self.record_len);
         out.intensity.extend(recs().map(|r| u16_at(r, 12)));
         if self.format.extended {
             out.returns.extend(recs().map(|r| byte(r, 14)));
