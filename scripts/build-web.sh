@@ -24,10 +24,13 @@ if ! [ -x "$bindgen" ] || [ "$("$bindgen" --version | awk '{print $2}')" != "$ve
         cargo install --version "$version" --root "$root/target/tools" wasm-bindgen-cli
 fi
 
-# The `web` profile: release without debug info (faster to build, a smaller .wasm).
-cargo build -p pointlet-web --profile web --target wasm32-unknown-unknown --locked
+# The `web` profile: release without debug info (faster to build, a smaller .wasm). A target
+# folder of its own: scripts/test.sh builds the viewer while `cargo test` runs, and cargo locks
+# a target folder for one build at a time.
+cargo build -p pointlet-web --profile web --target wasm32-unknown-unknown --locked \
+    --target-dir "$root/target/wasm"
 mkdir -p "$out"
 "$bindgen" --target web --no-typescript --out-dir "$out" \
-    target/wasm32-unknown-unknown/web/pointlet_web.wasm
+    "$root/target/wasm/wasm32-unknown-unknown/web/pointlet_web.wasm"
 cp crates/web/www/index.html crates/web/www/main.js "$out/"
 echo "built the web viewer into $out"

@@ -5,6 +5,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PLAYWRIGHT_VERSION=1.65.1
+# One run at a time: scripts/test.sh starts this in the background while the tests run, and the
+# browser test calls it again; the second call waits here, then finds everything in place.
+mkdir -p target
+exec 9>target/.ensure-browser.lock
+flock 9
 
 if ! command -v chromium >/dev/null 2>&1; then
     echo "installing chromium for the web viewer test" >&2

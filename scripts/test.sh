@@ -32,4 +32,10 @@ if ! wait "$services"; then
     exit 1
 fi
 cat "$services_log"
+# The web viewer (wasm-bindgen-cli and the wasm build, ~5 minutes the first time) builds at the
+# lowest priority while the tests run, on the cores they leave idle; the browser test's own call
+# of ensure-browser.sh waits for it and finds it done (and reports any failure itself).
+nice -n 19 bash scripts/ensure-browser.sh >/dev/null 2>&1 &
+browser=$!
+trap 'wait "$services" "$browser" 2>/dev/null || true; rm -f "$services_log"' EXIT
 cargo test --workspace --locked
