@@ -390,47 +390,56 @@ impl<'a> Emitter<'a> {
         let a = p0 * o.k;
         let n = ((p1 * o.k).min(o.points) - a) as usize;
         let rl = o.rl;
-        if let Some(map) = o.map {
-            let mut outs = Vec::with_capacity(rl.fields.len());
-            for (info, (_, _, bpp)) in o.plan.streams.iter().zip(&rl.fields) {
-                let at = info.offset + a * info.bytes_per_point as u64;
-                // SAFETY: the streams' ranges in the plan are apart, and this block's points
-                // were claimed once above.
-                outs.push(unsafe { map.slice(at, n * bpp) }.ok_or_else(|| self.outside())?);
+        // The streams' bytes go straight into the mapped file, or into buffers for the writers.
+        let mut buffers = Vec::new();
+        let mut outs: Vec<&mut [u8]> = match o.map {
+            Some(map) => {
+                let mut outs = Vec::with_capacity(rl.fields.len());
+                for (info, (_, _, bpp)) in o.plan.streams.iter().zip(&rl.fields) {
+                    let at = info.offset + a * info.bytes_per_point as u64;
+                    // SAFETY: the streams' ranges in the plan are apart, and this block's
+                    // points were claimed once above.
+                    outs.push(unsafe { map.slice(at, n * bpp) }.ok_or_else(|| self.outside())?);
+                }
+                outs
             }
-            let results = self.compute(p0, p1, source, &mut outs);
-            let (table, checks) = self.finish(p0, p1, &results);
-            let (table_at, checks_at) = o.table_offsets(p0);
-            // SAFETY: the table rows and checksums of the claimed pointlets, apart from the
-            // streams in the plan.
-            unsafe {
-                map.slice(table_at, table.len())
-                    .ok_or_else(|| self.outside())?
-                    .copy_from_slice(&table);
-                map.slice(checks_at, checks.len())
-                    .ok_or_else(|| self.outside())?
-                    .copy_from_slice(&checks);
+            None => {
+                buffers = lock(&self.shared.spare).pop().unwrap_or_default();
+                buffers.resize_with(rl.fields.len(), Vec::new);
+                // Every byte is overwritten: reused buffers of the right size are not zeroed.
+                for (buf, (_, _, bpp)) in buffers.iter_mut().zip(&rl.fields) {
+                    buf.resize(n * bpp, 0);
+                }
+                buffers.iter_mut().map(|b| b.as_mut_slice()).collect()
             }
-            return Ok(());
-        }
-        let mut streams = lock(&self.shared.spare).pop().unwrap_or_default();
-        streams.resize_with(rl.fields.len(), Vec::new);
-        // Every byte is overwritten: reused buffers of the right size are not zeroed again.
-        for (buf, (_, _, bpp)) in streams.iter_mut().zip(&rl.fields) {
-            buf.resize(n * bpp, 0);
-        }
-        let mut outs: Vec<&mut [u8]> = streams.iter_mut().map(|b| b.as_mut_slice()).collect();
+        };
         let results = self.compute(p0, p1, source, &mut outs);
+        drop(outs);
         let (table, checks) = self.finish(p0, p1, &results);
-        self.jobs
-            .send(WriteJob {
-                first: a,
-                p0,
-                streams,
-                table,
-                checks,
-            })
-            .map_err(|_| self.writer_stopped())
+        let Some(map) = o.map else {
+            return self
+                .jobs
+                .send(WriteJob {
+                    first: a,
+                    p0,
+                    streams: buffers,
+                    table,
+                    checks,
+                })
+                .map_err(|_| self.writer_stopped());
+        };
+        let (table_at, checks_at) = o.table_offsets(p0);
+        // SAFETY: the table rows and checksums of the claimed pointlets, apart from the streams
+        // in the plan.
+        unsafe {
+            map.slice(table_at, table.len())
+                .ok_or_else(|| self.outside())?
+                .copy_from_slice(&table);
+            map.slice(checks_at, checks.len())
+                .ok_or_else(|| self.outside())?
+                .copy_from_slice(&checks);
+        }
+        Ok(())
     }
 
     /// Marks pointlets `[p0, p1)` emitted; fails if any was before.
