@@ -121,10 +121,20 @@ pub fn run(args: Args) -> Result<()> {
         readers,
     )?;
     let secs = started.elapsed().as_secs_f64();
-    let writes = match summary.timings.writer_busy {
+    let mut writes = match summary.timings.writer_busy {
         Some(busy) => format!("the writers were busy {:.2} s in all", busy.as_secs_f64()),
         None => "written through a mapping of the file".to_string(),
     };
+    if let Some(s) = summary.timings.spills {
+        writes += &format!(
+            "; {} runs spilled: reading waited {:.2} s for the spilling threads, which sorted \
+             {:.2} s and wrote {:.2} s in all",
+            summary.runs,
+            s.waited.as_secs_f64(),
+            s.sorting.as_secs_f64(),
+            s.writing.as_secs_f64()
+        );
+    }
     eprintln!(
         "wrote {}: {} points in {} pointlet{} of {} in {:.2} s ({}; reading {:.2} s, sorting \
          {:.2} s, writing {:.2} s; {writes})",

@@ -104,6 +104,20 @@ pub struct BuildTimings {
     /// (they wait for blocks otherwise); `None` when the store was written through a mapping,
     /// by the threads that computed it.
     pub writer_busy: Option<std::time::Duration>,
+    /// Out of core, how the runs were spilled; `None` in memory.
+    pub spills: Option<SpillTimings>,
+}
+
+/// Where an out-of-core build's reading stage went besides decoding: runs are sorted and
+/// written on spilling threads while the next run fills.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpillTimings {
+    /// The time filling waited for a spilling thread to take the full run (reading stage).
+    pub waited: std::time::Duration,
+    /// Sorting runs, added over the runs (each sort uses every core it gets).
+    pub sorting: std::time::Duration,
+    /// Gathering runs into sorted order and writing them, added over the runs.
+    pub writing: std::time::Duration,
 }
 
 /// A keying task's result: raw bounds of its points, or the first bad point and why.
@@ -172,6 +186,8 @@ pub struct StoreBuilder {
     raw_max: [i32; 3],
     failed: bool,
     write_map: WriteMapUse,
+    /// The time filling waited for a spilling thread.
+    spill_waited: std::time::Duration,
 }
 
 /// When an in-memory build writes the store through a mapping ([`pio::WriteMap`]).
@@ -318,6 +334,7 @@ impl StoreBuilder {
             raw_max: [i32::MIN; 3],
             failed: false,
             write_map: WriteMapUse::HugePages,
+            spill_waited: std::time::Duration::ZERO,
         })
     }
 
@@ -594,7 +611,10 @@ impl StoreBuilder {
         let reuse = if spiller.in_flight() < runs::SPILLERS {
             Run::default()
         } else {
-            match spiller.wait(&self.output)? {
+            let from = std::time::Instant::now();
+            let oldest = spiller.wait(&self.output);
+            self.spill_waited += from.elapsed();
+            match oldest? {
                 Some((file, emptied)) => {
                     self.runs.push(file);
                     emptied
@@ -644,6 +664,14 @@ impl StoreBuilder {
         if spilled {
             self.spill()?;
             self.drain_spills()?;
+            if let Some(s) = &self.spiller {
+                let (sorting, writing) = s.busy();
+                timings.spills = Some(SpillTimings {
+                    waited: self.spill_waited,
+                    sorting,
+                    writing,
+                });
+            }
             self.spiller = None;
             self.run = Run::default();
             self.report(BuildPhase::Sorting, n, n);

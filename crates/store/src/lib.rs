@@ -24,7 +24,7 @@ mod sort;
 pub mod source;
 
 pub use builder::{
-    BuildConfig, BuildPhase, BuildProgress, BuildSummary, BuildTimings, StoreBuilder,
+    BuildConfig, BuildPhase, BuildProgress, BuildSummary, BuildTimings, SpillTimings, StoreBuilder,
 };
 pub use error::StoreError;
 pub use format::{PointletEntry, StoreHeader, StreamInfo, StreamKind};

@@ -165,27 +165,35 @@ pub(crate) struct Spiller {
     jobs: Option<SyncSender<SpillJob>>,
     pending: std::collections::VecDeque<Receiver<SpillResult>>,
     workers: Vec<JoinHandle<()>>,
+    /// Nanoseconds spent sorting runs and writing them, added over the runs.
+    busy: std::sync::Arc<[AtomicU64; 2]>,
 }
 
 impl Spiller {
     pub fn new(rb: usize, chunk_bytes: usize) -> Spiller {
         let (jobs, todo) = sync_channel::<SpillJob>(SPILLERS);
         let todo = std::sync::Arc::new(std::sync::Mutex::new(todo));
+        let busy = std::sync::Arc::new([AtomicU64::new(0), AtomicU64::new(0)]);
         let workers = (0..SPILLERS)
             .map(|_| {
-                let todo = todo.clone();
+                let (todo, busy) = (todo.clone(), busy.clone());
                 std::thread::spawn(move || loop {
                     let job = todo.lock().map(|queue| queue.recv());
                     let Ok(Ok((path, mut run, reply))) = job else {
                         return;
                     };
+                    let started = std::time::Instant::now();
                     crate::sort::sort_pairs_with(&mut run.pairs, &mut run.scratch);
+                    let sorted = std::time::Instant::now();
                     let result =
                         write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
                             run.records.clear();
                             run.pairs.clear();
                             (f, run)
                         });
+                    let nanos = |d: std::time::Duration| d.as_nanos() as u64;
+                    busy[0].fetch_add(nanos(sorted - started), Ordering::Relaxed);
+                    busy[1].fetch_add(nanos(sorted.elapsed()), Ordering::Relaxed);
                     // A dropped receiver means the build was abandoned; the run file goes too.
                     let _ = reply.send(result);
                 })
@@ -195,7 +203,14 @@ impl Spiller {
             jobs: Some(jobs),
             pending: Default::default(),
             workers,
+            busy,
         }
+    }
+
+    /// The time spent sorting runs and writing them so far, each added over the runs.
+    pub fn busy(&self) -> (std::time::Duration, std::time::Duration) {
+        let d = |i: usize| std::time::Duration::from_nanos(self.busy[i].load(Ordering::Relaxed));
+        (d(0), d(1))
     }
 
     fn stopped(path: &Path) -> StoreError {

@@ -51,6 +51,15 @@ fn in_memory_and_out_of_core_builds_are_byte_identical_and_clean() {
         &batches,
     );
     assert!(s_unclaimed.runs > 1);
+    // Only builds that spilled account for their spilling threads, which sorted and wrote.
+    assert_eq!(s_mem.timings.spills, None);
+    for s in [&s_ooc, &s_beside, &s_unclaimed] {
+        let spills = s.timings.spills.expect("spill timings");
+        assert!(
+            !spills.sorting.is_zero() && !spills.writing.is_zero(),
+            "{spills:?}"
+        );
+    }
     let a = std::fs::read(&mem).unwrap();
     assert!(
         a == std::fs::read(&ooc).unwrap(),
