@@ -38,14 +38,13 @@ cat "$services_log"
 # reports any failure itself).
 nice -n 19 bash scripts/ensure-browser.sh >/dev/null 2>&1 &
 browser=$!
-trap 'wait "$services" "$browser" 2>/dev/null || true; rm -f "$services_log"' EXIT
+browser_log=$(mktemp)
+trap 'wait "$services" "$browser" 2>/dev/null || true; rm -f "$services_log" "$browser_log"' EXIT
 browser_test=the_browser_draws_the_shared_view_as_render_does
 cargo test --workspace --locked -- --skip "$browser_test"
-browser_log=$(mktemp)
 cargo test --locked -p pointlet --test web -- --exact "$browser_test" 2>&1 | tee "$browser_log"
 # A renamed test would match nothing here and pass unseen: it must have run.
 if ! grep -q "^test $browser_test \.\.\. ok" "$browser_log"; then
     echo "error: the browser test $browser_test did not run" >&2
     exit 1
 fi
-rm -f "$browser_log"

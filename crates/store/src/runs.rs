@@ -165,15 +165,21 @@ pub(crate) struct Spiller {
     jobs: Option<SyncSender<SpillJob>>,
     pending: std::collections::VecDeque<Receiver<SpillResult>>,
     workers: Vec<JoinHandle<()>>,
-    /// Nanoseconds spent sorting runs and writing them, added over the runs.
-    busy: std::sync::Arc<[AtomicU64; 2]>,
+    busy: std::sync::Arc<SpillBusy>,
+}
+
+/// Nanoseconds the spilling threads spent sorting runs and writing them, added over the runs.
+#[derive(Default)]
+struct SpillBusy {
+    sorting: AtomicU64,
+    writing: AtomicU64,
 }
 
 impl Spiller {
     pub fn new(rb: usize, chunk_bytes: usize) -> Spiller {
         let (jobs, todo) = sync_channel::<SpillJob>(SPILLERS);
         let todo = std::sync::Arc::new(std::sync::Mutex::new(todo));
-        let busy = std::sync::Arc::new([AtomicU64::new(0), AtomicU64::new(0)]);
+        let busy = std::sync::Arc::new(SpillBusy::default());
         let workers = (0..SPILLERS)
             .map(|_| {
                 let (todo, busy) = (todo.clone(), busy.clone());
@@ -192,8 +198,10 @@ impl Spiller {
                             (f, run)
                         });
                     let nanos = |d: std::time::Duration| d.as_nanos() as u64;
-                    busy[0].fetch_add(nanos(sorted - started), Ordering::Relaxed);
-                    busy[1].fetch_add(nanos(sorted.elapsed()), Ordering::Relaxed);
+                    busy.sorting
+                        .fetch_add(nanos(sorted - started), Ordering::Relaxed);
+                    busy.writing
+                        .fetch_add(nanos(sorted.elapsed()), Ordering::Relaxed);
                     // A dropped receiver means the build was abandoned; the run file goes too.
                     let _ = reply.send(result);
                 })
@@ -209,8 +217,8 @@ impl Spiller {
 
     /// The time spent sorting runs and writing them so far, each added over the runs.
     pub fn busy(&self) -> (std::time::Duration, std::time::Duration) {
-        let d = |i: usize| std::time::Duration::from_nanos(self.busy[i].load(Ordering::Relaxed));
-        (d(0), d(1))
+        let d = |ns: &AtomicU64| std::time::Duration::from_nanos(ns.load(Ordering::Relaxed));
+        (d(&self.busy.sorting), d(&self.busy.writing))
     }
 
     fn stopped(path: &Path) -> StoreError {
