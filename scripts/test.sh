@@ -25,6 +25,14 @@ cargo fmt --all -- --check
 # quarter of the suite's time on a 2-core machine.
 export RUSTC_WORKSPACE_WRAPPER="${RUSTC_WORKSPACE_WRAPPER:-clippy-driver}"
 export RUSTFLAGS="${RUSTFLAGS:-} -D warnings"
+# The web viewer's build (wasm-bindgen-cli and the wasm, ~5 minutes the first time) starts now,
+# at the lowest priority, on the cycles the test build leaves idle; under the lock of
+# ensure-browser.sh, whose call by the browser test then finds it done. Same flags as that
+# call, or cargo would build the wasm again.
+mkdir -p target
+nice -n 19 flock target/.ensure-browser.lock bash scripts/build-web.sh >/dev/null 2>&1 &
+web=$!
+trap 'wait "$services" "$web" 2>/dev/null || true; rm -f "$services_log"' EXIT
 cargo test --workspace --all-targets --locked --no-run
 if ! wait "$services"; then
     cat "$services_log" >&2
@@ -32,14 +40,14 @@ if ! wait "$services"; then
     exit 1
 fi
 cat "$services_log"
-# The web viewer (wasm-bindgen-cli and the wasm build, ~5 minutes the first time) builds at the
-# lowest priority while the other tests run, on the cores they leave idle; the browser test runs
-# last, and its own call of ensure-browser.sh waits for that build and finds it done (and
+# What else the browser test needs (chromium, playwright-core; the web build again should the
+# early one have failed) installs at the lowest priority while the other tests run; the browser
+# test runs last, and its own call of ensure-browser.sh waits for it and finds it done (and
 # reports any failure itself).
 nice -n 19 bash scripts/ensure-browser.sh >/dev/null 2>&1 &
 browser=$!
 browser_log=$(mktemp)
-trap 'wait "$services" "$browser" 2>/dev/null || true; rm -f "$services_log" "$browser_log"' EXIT
+trap 'wait "$services" "$web" "$browser" 2>/dev/null || true; rm -f "$services_log" "$browser_log"' EXIT
 browser_test=the_browser_draws_the_shared_view_as_render_does
 cargo test --workspace --locked -- --skip "$browser_test"
 cargo test --locked -p pointlet --test web -- --exact "$browser_test" 2>&1 | tee "$browser_log"
