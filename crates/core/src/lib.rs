@@ -16,6 +16,7 @@ pub mod parts;
 pub mod path;
 pub mod points;
 pub mod progressive;
+pub mod rows;
 pub mod shuffle;
 pub mod size;
 

@@ -4,6 +4,7 @@
 //! hands parts to every core instead of reading the file front to back on one thread.
 
 use crate::color::ColorMode;
+use crate::rows::RowLayout;
 use crate::{PointBatch, Quantization};
 
 /// Why a part could not be decoded: the reader's own error (it names the file and offset).
@@ -84,22 +85,23 @@ pub trait PartedSource: Sync {
         Ok(false)
     }
 
-    /// Decodes part `i` for a store quantized as `q`, when the part stores its positions as
-    /// integers of exactly `q` (a LAS or LAZ file of that scale and offset): its positions go
-    /// to `positions` as stored, its other columns to `out` as [`decode_part`] gives them, and
-    /// `out.xyz` stays empty (no round trip through f64). `Ok(false)`, with nothing decoded,
-    /// for any other quantization or source.
+    /// Decodes part `i` straight into rows of `row` for a store quantized as `q` (`rows` holds
+    /// one per point of the part), when the part stores its positions as integers of exactly
+    /// `q` and `row` has every column it has (a LAS or LAZ file of that scale and offset): each
+    /// row's position is the stored integers (no round trip through f64), its other columns
+    /// what [`decode_part`] gives, zero where the part lacks a column of `row`. `Ok(false)`,
+    /// with nothing written, for any other quantization, layout or source.
     ///
     /// [`decode_part`]: Self::decode_part
-    fn decode_part_stored(
+    fn decode_part_rows(
         &self,
         i: usize,
         q: &Quantization,
-        out: &mut PointBatch,
-        positions: &mut Vec<[i32; 3]>,
+        row: &RowLayout,
+        rows: &mut [u8],
         scratch: &mut Vec<u8>,
     ) -> Result<bool, PartError> {
-        let _ = (i, q, out, positions, scratch);
+        let _ = (i, q, row, rows, scratch);
         Ok(false)
     }
 

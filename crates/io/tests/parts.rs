@@ -3,7 +3,8 @@
 
 mod common;
 use common::*;
-use pointlet_core::{PartedSource, PointBatch};
+use pointlet_core::rows::RowLayout;
+use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_io::generate::{SceneConfig, SceneGenerator};
 use pointlet_io::writer::{LasWriter, LasWriterConfig};
 use pointlet_io::PointReader;
@@ -107,45 +108,74 @@ fn parts_in_order_give_exactly_what_read_batch_gives() {
 }
 
 #[test]
-fn stored_positions_are_the_files_integers_with_the_same_other_columns() {
+fn rows_hold_the_files_integers_and_the_columns_decode_part_gives() {
     let dir = tempfile::tempdir().expect("tempdir");
     for path in every_file(dir.path()) {
         let r = pointlet_io::open(&path).expect("open");
         let parts = parts_of(r.as_ref());
         let q = r.meta().quantization.expect("LAS and LAZ are quantized");
+        let layout = r.meta().layout;
         let other = pointlet_core::Quantization {
             scale: q.scale,
             offset: [q.offset[0] + q.scale[0], q.offset[1], q.offset[2]],
         };
-        let (mut scratch, mut positions) = (Vec::new(), Vec::new());
+        // The file's own columns, and a store's with every column (more extra bytes too):
+        // what the file lacks must come out zero.
+        let wide = PointLayout {
+            gps_time: true,
+            rgb: true,
+            nir: true,
+            waveform: true,
+            extra_bytes: layout.extra_bytes + 3,
+        };
+        let narrower = PointLayout {
+            gps_time: false,
+            rgb: false,
+            extra_bytes: layout.extra_bytes.saturating_sub(1),
+            ..layout
+        };
+        let mut scratch = Vec::new();
         for (i, want) in parts_in_order(parts).into_iter().enumerate() {
-            let mut got = PointBatch::default();
-            let stored = parts
-                .decode_part_stored(i, &other, &mut got, &mut positions, &mut scratch)
-                .expect("decoded");
-            assert!(
-                !stored,
-                "{}: another quantization was taken",
-                path.display()
-            );
-            let stored = parts
-                .decode_part_stored(i, &q, &mut got, &mut positions, &mut scratch)
-                .expect("decoded");
-            assert!(stored, "{}: part {i} not decoded as stored", path.display());
-            assert!(got.xyz.is_empty());
-            let quantized: Vec<[i32; 3]> = want
-                .xyz
-                .iter()
-                .map(|p| q.quantize(*p).expect("in range"))
-                .collect();
-            assert!(
-                positions == quantized,
-                "{}: part {i} positions",
-                path.display()
-            );
-            // The other columns are those decode_part gives.
-            got.xyz = want.xyz.clone();
-            assert!(got == want, "{}: part {i} columns", path.display());
+            for store_layout in [layout, wide] {
+                let row = RowLayout::new(&store_layout);
+                // Garbage first: every byte must be written.
+                let mut rows = vec![0xA5u8; want.len() * row.len];
+                for (q2, row2, why) in [
+                    (other, row, "another quantization"),
+                    (q, RowLayout::new(&narrower), "fewer columns than the file"),
+                ] {
+                    if row2 == row && q2 == q {
+                        continue;
+                    }
+                    let mut rows2 = vec![0u8; want.len() * row2.len];
+                    let taken = parts
+                        .decode_part_rows(i, &q2, &row2, &mut rows2, &mut scratch)
+                        .expect("decoded");
+                    assert!(!taken, "{}: {why} was taken", path.display());
+                }
+                let taken = parts
+                    .decode_part_rows(i, &q, &row, &mut rows, &mut scratch)
+                    .expect("decoded");
+                assert!(taken, "{}: part {i} not decoded into rows", path.display());
+                let quantized: Vec<[i32; 3]> = want
+                    .xyz
+                    .iter()
+                    .map(|p| q.quantize(*p).expect("in range"))
+                    .collect();
+                let mut packed = vec![0u8; rows.len()];
+                row.pack(&want, 0, &quantized, &mut packed);
+                assert!(
+                    rows == packed,
+                    "{}: part {i} rows of {store_layout:?}",
+                    path.display()
+                );
+            }
+            // Rows for another number of points are an error, not a partial decode.
+            let row = RowLayout::new(&layout);
+            let mut short = vec![0u8; (want.len() - 1) * row.len];
+            assert!(parts
+                .decode_part_rows(i, &q, &row, &mut short, &mut scratch)
+                .is_err());
         }
     }
 }

@@ -5,6 +5,7 @@ use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
 use crate::runs::{self, Run, RunFile, RunSlice, Spiller};
 use crate::{meta, pio, pointlet_size, sort, StoreError};
 use pointlet_core::codes::KeyGrid;
+use pointlet_core::rows;
 use pointlet_core::{
     Aabb, LasFields, PartedSource, PointBatch, PointLayout, Quantization, SourceMeta, Vlr,
 };
@@ -438,33 +439,35 @@ impl StoreBuilder {
         let results: Vec<Result<RawBounds, StoreError>> = jobs
             .into_par_iter()
             .map_init(
-                || (PointBatch::default(), Vec::new(), Vec::new()),
-                |(batch, positions, scratch), (part, at, recs, pairs)| {
-                    // Positions stored as integers of the store's quantization skip f64.
-                    let stored = source
-                        .decode_part_stored(part, &q, batch, positions, scratch)
-                        .map_err(StoreError::Input)?;
-                    if !stored {
+                || (PointBatch::default(), Vec::new()),
+                |(batch, scratch), (part, at, recs, pairs)| {
+                    // Parts that store positions as integers of the store's quantization decode
+                    // straight into their rows: no f64 round trip, no columns in between.
+                    let seq = pushed + (at - n0) as u64;
+                    let bounds = if source
+                        .decode_part_rows(part, &q, &rl.row, recs, scratch)
+                        .map_err(StoreError::Input)?
+                    {
+                        key_rows(recs, q, grid, rl, at, pairs)
+                    } else {
                         source
                             .decode_part(part, batch, scratch)
                             .map_err(StoreError::Input)?;
-                    }
-                    let decoded = if stored { positions.len() } else { batch.len() };
-                    if decoded != pairs.len() || batch.layout.union(want) != want {
-                        return Err(StoreError::build(
-                            output,
-                            format!(
-                                "internal error: part {part} decoded to {decoded} points of \
-                                 {:?}, expected {} of {want:?}",
-                                batch.layout,
-                                pairs.len()
-                            ),
-                        ));
-                    }
-                    let seq = pushed + (at - n0) as u64;
-                    let stored = stored.then_some(positions.as_slice());
-                    let bounds = key_and_pack(batch, stored, 0, q, grid, rl, at, recs, pairs)
-                        .map_err(|(i, m)| bad_point(output, seq + i as u64, m))?;
+                        if batch.len() != pairs.len() || batch.layout.union(want) != want {
+                            return Err(StoreError::build(
+                                output,
+                                format!(
+                                    "internal error: part {part} decoded to {} points of {:?}, \
+                                     expected {} of {want:?}",
+                                    batch.len(),
+                                    batch.layout,
+                                    pairs.len()
+                                ),
+                            ));
+                        }
+                        key_and_pack(batch, 0, q, grid, rl, at, recs, pairs)
+                            .map_err(|(i, m)| bad_point(output, seq + i as u64, m))?
+                    };
                     let d = done.fetch_add(pairs.len() as u64, Ordering::Relaxed);
                     if let Some(p) = progress {
                         let now = pushed + d + pairs.len() as u64;
@@ -565,18 +568,8 @@ impl StoreBuilder {
             .enumerate()
             .map(|(t, (recs, pairs))| {
                 let from = start + t * KEY_TASK;
-                key_and_pack(
-                    batch,
-                    None,
-                    from,
-                    q,
-                    grid,
-                    rl,
-                    n0 + t * KEY_TASK,
-                    recs,
-                    pairs,
-                )
-                .map_err(|(i, m)| (from + i, m))
+                key_and_pack(batch, from, q, grid, rl, n0 + t * KEY_TASK, recs, pairs)
+                    .map_err(|(i, m)| (from + i, m))
             })
             .collect();
         for r in results {
@@ -1139,14 +1132,16 @@ impl Router<'_> {
     }
 }
 
+/// Blocks of points keyed and packed at a time: small enough that their records stay in the
+/// L2 cache while packed column by column.
+const BLOCK: usize = 2048;
+
 /// Quantizes, keys and packs points `from..from + pairs.len()` of `batch` into `recs` and
-/// `pairs` (run indices from `index`); with `stored`, their positions are those integers (of
-/// `q`) instead of `batch.xyz`. Returns their raw bounds, or the offset (from `from`) of the
-/// first bad point and why.
+/// `pairs` (run indices from `index`). Returns their raw bounds, or the offset (from `from`)
+/// of the first bad point and why.
 #[allow(clippy::too_many_arguments)]
 fn key_and_pack(
     batch: &PointBatch,
-    stored: Option<&[[i32; 3]]>,
     from: usize,
     q: Quantization,
     grid: KeyGrid,
@@ -1155,10 +1150,7 @@ fn key_and_pack(
     recs: &mut [u8],
     pairs: &mut [(u64, u32)],
 ) -> KeyChunk {
-    // Blocks small enough that their records stay in the L2 cache while packed field by field.
-    const BLOCK: usize = 2048;
-    let mut lo = [i32::MAX; 3];
-    let mut hi = [i32::MIN; 3];
+    let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
     let mut raw = [[0i32; 3]; BLOCK];
     for (b, (recs, pairs)) in recs
         .chunks_mut(BLOCK * rl.len)
@@ -1168,42 +1160,77 @@ fn key_and_pack(
         let first = b * BLOCK;
         let raw = &mut raw[..pairs.len()];
         let rows = from + first..from + first + raw.len();
-        match stored {
-            Some(stored) => raw.copy_from_slice(&stored[rows]),
-            None => {
-                for (j, (r, p)) in raw.iter_mut().zip(&batch.xyz[rows]).enumerate() {
-                    *r = q.quantize(*p).map_err(|e| {
-                        (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2]))
-                    })?;
-                }
-            }
+        for (j, (r, p)) in raw.iter_mut().zip(&batch.xyz[rows]).enumerate() {
+            *r = q
+                .quantize(*p)
+                .map_err(|e| (first + j, format!("at ({}, {}, {}): {e}", p[0], p[1], p[2])))?;
         }
-        for r in raw.iter() {
-            for a in 0..3 {
-                lo[a] = lo[a].min(r[a]);
-                hi[a] = hi[a].max(r[a]);
-            }
-        }
-        // Keys four at a time (their table walks overlap), the rest one by one.
-        let (at, done) = (index + first, pairs.len() / 4 * 4);
-        let mut fours = pairs.chunks_exact_mut(4);
-        for (j, four) in fours.by_ref().enumerate() {
-            let r = &raw[4 * j..4 * j + 4];
-            let d = |i: usize| q.dequantize(r[i]);
-            let keys = grid.hilbert4([d(0), d(1), d(2), d(3)]);
-            for (i, (pair, key)) in four.iter_mut().zip(keys).enumerate() {
-                *pair = (key, (at + 4 * j + i) as u32);
-            }
-        }
-        for (i, pair) in fours.into_remainder().iter_mut().enumerate() {
-            *pair = (
-                grid.hilbert(q.dequantize(raw[done + i])),
-                (at + done + i) as u32,
-            );
-        }
-        rl.pack_block(batch, from + first, raw, recs);
+        key_block(raw, q, grid, index + first, pairs, &mut bounds);
+        rl.row.pack(batch, from + first, raw, recs);
     }
-    Ok((lo, hi))
+    Ok(bounds)
+}
+
+/// Keys the rows `recs` (whose positions are the stored integers) into `pairs` (run indices
+/// from `index`); their raw bounds.
+fn key_rows(
+    recs: &[u8],
+    q: Quantization,
+    grid: KeyGrid,
+    rl: &RecordLayout,
+    index: usize,
+    pairs: &mut [(u64, u32)],
+) -> RawBounds {
+    let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
+    let mut raw = [[0i32; 3]; BLOCK];
+    for (b, (recs, pairs)) in recs
+        .chunks(BLOCK * rl.len)
+        .zip(pairs.chunks_mut(BLOCK))
+        .enumerate()
+    {
+        let raw = &mut raw[..pairs.len()];
+        for (r, rec) in raw.iter_mut().zip(recs.chunks_exact(rl.len)) {
+            *r = rows::row_position(rec);
+        }
+        key_block(raw, q, grid, index + b * BLOCK, pairs, &mut bounds);
+    }
+    bounds
+}
+
+/// Keys the stored positions `raw` into `pairs` (run indices from `index`) and widens
+/// `bounds` to them.
+fn key_block(
+    raw: &[[i32; 3]],
+    q: Quantization,
+    grid: KeyGrid,
+    index: usize,
+    pairs: &mut [(u64, u32)],
+    bounds: &mut RawBounds,
+) {
+    let (lo, hi) = bounds;
+    for r in raw {
+        for a in 0..3 {
+            lo[a] = lo[a].min(r[a]);
+            hi[a] = hi[a].max(r[a]);
+        }
+    }
+    // Keys four at a time (their table walks overlap), the rest one by one.
+    let done = pairs.len() / 4 * 4;
+    let mut fours = pairs.chunks_exact_mut(4);
+    for (j, four) in fours.by_ref().enumerate() {
+        let r = &raw[4 * j..4 * j + 4];
+        let d = |i: usize| q.dequantize(r[i]);
+        let keys = grid.hilbert4([d(0), d(1), d(2), d(3)]);
+        for (i, (pair, key)) in four.iter_mut().zip(keys).enumerate() {
+            *pair = (key, (index + 4 * j + i) as u32);
+        }
+    }
+    for (i, pair) in fours.into_remainder().iter_mut().enumerate() {
+        *pair = (
+            grid.hilbert(q.dequantize(raw[done + i])),
+            (index + done + i) as u32,
+        );
+    }
 }
 
 /// Recomputes the keys of a run from its records' quantized positions (their first 12 bytes).
@@ -1211,12 +1238,7 @@ fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
     let records = &run.records;
     run.pairs.par_iter_mut().for_each(|(key, idx)| {
         let at = *idx as usize * rb;
-        let mut raw = [0i32; 3];
-        for (a, v) in raw.iter_mut().enumerate() {
-            let b = at + 4 * a;
-            *v = i32::from_le_bytes(format::array(&records[b..b + 4]));
-        }
-        *key = grid.hilbert(q.dequantize(raw));
+        *key = grid.hilbert(q.dequantize(rows::row_position(&records[at..at + rb])));
     });
 }
 

@@ -6,8 +6,9 @@
 
 use crate::format::{Plan, PointletEntry, StreamKind, TABLE_ENTRY_LEN};
 use crate::{pio, StoreError};
+use pointlet_core::rows::{self, RowLayout};
 use pointlet_core::shuffle::{mix_seed, permutation};
-use pointlet_core::{Aabb, PointBatch, PointLayout, Quantization};
+use pointlet_core::{Aabb, PointLayout, Quantization};
 use rayon::prelude::*;
 use std::fs::File;
 use std::path::Path;
@@ -21,137 +22,43 @@ use std::time::{Duration, Instant};
 /// more from four.
 const WRITERS: usize = 2;
 
-/// Where each stream's value sits inside a record.
+/// Where each stream's value sits inside a record: a point as one [`RowLayout`] row.
 #[derive(Clone, Debug)]
 pub(crate) struct RecordLayout {
     /// Bytes per record.
     pub len: usize,
     /// (stream, offset in the record, bytes), in stream order; position is first at offset 0.
     pub fields: Vec<(StreamKind, usize, usize)>,
-    gps_time: Option<usize>,
-    rgb: Option<usize>,
-    nir: Option<usize>,
-    waveform: Option<usize>,
-    extra: Option<(usize, usize)>,
+    pub row: RowLayout,
 }
-
-// The always-present fields lead every record at fixed offsets.
-const INTENSITY: usize = 12;
-const RETURNS: usize = 14;
-const FLAGS: usize = 15;
-const CLASSIFICATION: usize = 16;
-const SCAN_ANGLE: usize = 17;
-const USER_DATA: usize = 21;
-const POINT_SOURCE_ID: usize = 22;
 
 impl RecordLayout {
     pub fn new(layout: &PointLayout) -> RecordLayout {
-        let mut fields = Vec::new();
-        let mut at = 0;
-        for (kind, bpp) in StreamKind::present(layout) {
-            fields.push((kind, at, bpp));
-            at += bpp;
-        }
-        let find = |k: StreamKind| fields.iter().find(|f| f.0 == k).map(|f| f.1);
+        let row = RowLayout::new(layout);
+        let offset = |kind: StreamKind| match kind {
+            StreamKind::Position => Some(rows::POSITION),
+            StreamKind::Intensity => Some(rows::INTENSITY),
+            StreamKind::Returns => Some(rows::RETURNS),
+            StreamKind::Flags => Some(rows::FLAGS),
+            StreamKind::Classification => Some(rows::CLASSIFICATION),
+            StreamKind::ScanAngle => Some(rows::SCAN_ANGLE),
+            StreamKind::UserData => Some(rows::USER_DATA),
+            StreamKind::PointSourceId => Some(rows::POINT_SOURCE_ID),
+            StreamKind::GpsTime => row.gps_time,
+            StreamKind::Rgb => row.rgb,
+            StreamKind::Nir => row.nir,
+            StreamKind::Waveform => row.waveform,
+            StreamKind::ExtraBytes => row.extra.map(|e| e.0),
+        };
+        // Every stream of the layout has its column in the row (a test checks).
+        let fields = StreamKind::present(layout)
+            .into_iter()
+            .filter_map(|(kind, bytes)| Some((kind, offset(kind)?, bytes)))
+            .collect();
         RecordLayout {
-            len: at,
-            gps_time: find(StreamKind::GpsTime),
-            rgb: find(StreamKind::Rgb),
-            nir: find(StreamKind::Nir),
-            waveform: find(StreamKind::Waveform),
-            extra: find(StreamKind::ExtraBytes).map(|o| (o, layout.extra_bytes as usize)),
+            len: row.len,
             fields,
-        }
-    }
-
-    /// Writes points `from..from + raw.len()` of `batch` (whose layout is a subset of this
-    /// one) into the consecutive records `recs`, with `raw` their quantized positions. Field
-    /// by field: tight loops without a branch per point. Columns the batch lacks are zero;
-    /// shorter extra bytes are zero-padded.
-    pub fn pack_block(&self, batch: &PointBatch, from: usize, raw: &[[i32; 3]], recs: &mut [u8]) {
-        let n = raw.len();
-        let rb = self.len;
-        let to = from + n;
-        macro_rules! field {
-            ($at:expr, $width:expr, $values:expr, $bytes:expr) => {
-                for (rec, v) in recs.chunks_exact_mut(rb).zip($values) {
-                    rec[$at..$at + $width].copy_from_slice(&$bytes(v));
-                }
-            };
-        }
-        field!(0, 12, raw, |r: &[i32; 3]| {
-            let mut b = [0u8; 12];
-            b[0..4].copy_from_slice(&r[0].to_le_bytes());
-            b[4..8].copy_from_slice(&r[1].to_le_bytes());
-            b[8..12].copy_from_slice(&r[2].to_le_bytes());
-            b
-        });
-        field!(INTENSITY, 2, &batch.intensity[from..to], |v: &u16| v
-            .to_le_bytes());
-        field!(RETURNS, 1, &batch.returns[from..to], |v: &u8| [*v]);
-        field!(FLAGS, 1, &batch.flags[from..to], |v: &u8| [*v]);
-        field!(
-            CLASSIFICATION,
-            1,
-            &batch.classification[from..to],
-            |v: &u8| [*v]
-        );
-        field!(SCAN_ANGLE, 4, &batch.scan_angle[from..to], |v: &f32| v
-            .to_le_bytes());
-        field!(USER_DATA, 1, &batch.user_data[from..to], |v: &u8| [*v]);
-        field!(
-            POINT_SOURCE_ID,
-            2,
-            &batch.point_source_id[from..to],
-            |v: &u16| v.to_le_bytes()
-        );
-        let l = &batch.layout;
-        if let Some(o) = self.gps_time {
-            if l.gps_time {
-                field!(o, 8, &batch.gps_time[from..to], |v: &f64| v.to_le_bytes());
-            } else {
-                field!(o, 8, std::iter::repeat_n(0.0f64, n), |v: f64| v
-                    .to_le_bytes());
-            }
-        }
-        if let Some(o) = self.rgb {
-            let rgb = |c: &[u16; 3]| {
-                let mut b = [0u8; 6];
-                for (j, v) in c.iter().enumerate() {
-                    b[2 * j..2 * j + 2].copy_from_slice(&v.to_le_bytes());
-                }
-                b
-            };
-            if l.rgb {
-                field!(o, 6, &batch.rgb[from..to], rgb);
-            } else {
-                field!(o, 6, std::iter::repeat_n(&[0u16; 3], n), rgb);
-            }
-        }
-        if let Some(o) = self.nir {
-            if l.nir {
-                field!(o, 2, &batch.nir[from..to], |v: &u16| v.to_le_bytes());
-            } else {
-                field!(o, 2, std::iter::repeat_n(&0u16, n), |v: &u16| v
-                    .to_le_bytes());
-            }
-        }
-        if let Some(o) = self.waveform {
-            const W: usize = pointlet_core::WAVEFORM_BYTES;
-            if l.waveform {
-                field!(o, W, &batch.waveform[from..to], |v: &[u8; W]| *v);
-            } else {
-                field!(o, W, std::iter::repeat_n(&[0u8; W], n), |v: &[u8; W]| *v);
-            }
-        }
-        if let Some((o, width)) = self.extra {
-            let have = l.extra_bytes as usize;
-            let src = &batch.extra_bytes[from * have..to * have];
-            for (j, rec) in recs.chunks_exact_mut(rb).take(n).enumerate() {
-                let dst = &mut rec[o..o + width];
-                dst[..have].copy_from_slice(&src[j * have..(j + 1) * have]);
-                dst[have..].fill(0);
-            }
+            row,
         }
     }
 }
@@ -678,53 +585,28 @@ mod tests {
     }
 
     #[test]
-    fn fixed_offsets_match_the_stream_order() {
-        let rl = RecordLayout::new(&PointLayout::default());
-        let at = |k: StreamKind| rl.fields.iter().find(|f| f.0 == k).map(|f| f.1);
-        assert_eq!(at(StreamKind::Position), Some(0));
-        assert_eq!(at(StreamKind::Intensity), Some(INTENSITY));
-        assert_eq!(at(StreamKind::Returns), Some(RETURNS));
-        assert_eq!(at(StreamKind::Flags), Some(FLAGS));
-        assert_eq!(at(StreamKind::Classification), Some(CLASSIFICATION));
-        assert_eq!(at(StreamKind::ScanAngle), Some(SCAN_ANGLE));
-        assert_eq!(at(StreamKind::UserData), Some(USER_DATA));
-        assert_eq!(at(StreamKind::PointSourceId), Some(POINT_SOURCE_ID));
-        assert_eq!(rl.len, POINT_SOURCE_ID + 2);
-    }
-
-    #[test]
-    fn packing_a_narrower_batch_zero_fills() {
-        let wide = PointLayout {
-            gps_time: true,
-            rgb: true,
-            nir: true,
-            waveform: true,
-            extra_bytes: 3,
-        };
-        let narrow = PointLayout {
-            extra_bytes: 1,
-            ..Default::default()
-        };
-        let mut b = PointBatch::new(narrow);
-        b.xyz.push([0.0; 3]);
-        b.intensity.push(0x0102);
-        b.returns.push(3);
-        b.flags.push(4);
-        b.classification.push(5);
-        b.scan_angle.push(1.5);
-        b.user_data.push(6);
-        b.point_source_id.push(0x0708);
-        b.extra_bytes.push(9);
-        let rl = RecordLayout::new(&wide);
-        let mut rec = vec![0xFF; rl.len];
-        rl.pack_block(&b, 0, &[[1, -1, 2]], &mut rec);
-        assert_eq!(&rec[0..4], &1i32.to_le_bytes());
-        assert_eq!(&rec[4..8], &(-1i32).to_le_bytes());
-        assert_eq!(&rec[INTENSITY..INTENSITY + 2], &[2, 1]);
-        assert_eq!(&rec[SCAN_ANGLE..SCAN_ANGLE + 4], &1.5f32.to_le_bytes());
-        let extra = rl.extra.unwrap().0;
-        assert_eq!(&rec[extra..], &[9, 0, 0]);
-        // gps, rgb, nir and waveform lie between the fixed fields and the extra bytes.
-        assert!(rec[POINT_SOURCE_ID + 2..extra].iter().all(|x| *x == 0));
+    fn every_stream_has_its_column_and_records_are_the_streams_in_order() {
+        for bits in 0..32u8 {
+            let layout = PointLayout {
+                gps_time: bits & 1 != 0,
+                rgb: bits & 2 != 0,
+                nir: bits & 4 != 0,
+                waveform: bits & 8 != 0,
+                extra_bytes: if bits & 16 != 0 { 5 } else { 0 },
+            };
+            let rl = RecordLayout::new(&layout);
+            let present = StreamKind::present(&layout);
+            assert_eq!(rl.fields.len(), present.len(), "{layout:?}");
+            let mut at = 0;
+            for ((kind, offset, bytes), (want, want_bytes)) in rl.fields.iter().zip(present) {
+                assert_eq!(
+                    (*kind, *offset, *bytes),
+                    (want, at, want_bytes),
+                    "{layout:?}"
+                );
+                at += bytes;
+            }
+            assert_eq!(at, rl.len, "{layout:?}");
+        }
     }
 }

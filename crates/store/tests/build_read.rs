@@ -441,7 +441,8 @@ impl pointlet_core::PartedSource for Parts {
     }
 }
 
-/// [`Parts`] that also give their positions as integers of `Q`, as LAS and LAZ files do.
+/// [`Parts`] that also decode straight into rows, positions as integers of `Q`, as LAS and LAZ
+/// files do.
 struct StoredParts(Parts);
 
 impl pointlet_core::PartedSource for StoredParts {
@@ -458,22 +459,24 @@ impl pointlet_core::PartedSource for StoredParts {
         self.0.decode_part(i, out, scratch)
     }
 
-    fn decode_part_stored(
+    fn decode_part_rows(
         &self,
         i: usize,
         q: &pointlet_core::Quantization,
-        out: &mut pointlet_core::PointBatch,
-        positions: &mut Vec<[i32; 3]>,
+        row: &pointlet_core::rows::RowLayout,
+        rows: &mut [u8],
         scratch: &mut Vec<u8>,
     ) -> Result<bool, pointlet_core::PartError> {
         if *q != Q {
             return Ok(false);
         }
-        self.0.decode_part(i, out, scratch)?;
-        positions.clear();
-        for p in std::mem::take(&mut out.xyz) {
-            positions.push(q.quantize(p)?);
+        let mut batch = pointlet_core::PointBatch::default();
+        self.0.decode_part(i, &mut batch, scratch)?;
+        let mut positions = Vec::new();
+        for p in &batch.xyz {
+            positions.push(q.quantize(*p)?);
         }
+        row.pack(&batch, 0, &positions, rows);
         Ok(true)
     }
 }
@@ -509,14 +512,14 @@ fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
         &input,
     );
     let want = std::fs::read(&reference).unwrap();
-    // Positions as stored integers (no f64 round trip) give the same store.
+    // Parts decoded straight into rows (positions as stored integers) give the same store.
     let stored = StoredParts(Parts(parts.0.clone(), parts.1.clone()));
     for budget in [1u64 << 30, 2 << 20] {
         let out = dir.path().join(format!("stored-{budget}.pointlet"));
         build_parts(&out, config(budget, 300, 5), &stored, n);
         assert!(
             std::fs::read(&out).unwrap() == want,
-            "stored positions, budget {budget}: the store differs"
+            "parts as rows, budget {budget}: the store differs"
         );
     }
     for threads in [1, 3, 8] {

@@ -24,6 +24,7 @@ use super::{batch_points, decoder, read_exact_at};
 use crate::{IoError, PointReader};
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::{LazItem, LazItemType, LazVlr};
+use pointlet_core::rows::RowLayout;
 use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use rayon::prelude::*;
 use std::cell::Cell;
@@ -263,19 +264,21 @@ impl PartedSource for LazReader {
         Ok(())
     }
 
-    fn decode_part_stored(
+    fn decode_part_rows(
         &self,
         i: usize,
         q: &Quantization,
-        out: &mut PointBatch,
-        positions: &mut Vec<[i32; 3]>,
+        row: &RowLayout,
+        rows: &mut [u8],
         scratch: &mut Vec<u8>,
     ) -> Result<bool, PartError> {
-        if self.decoder.quantization() != *q {
+        if !self.decoder.fits_rows(q, row) {
             return Ok(false);
         }
         let records = self.decompress_part(i, scratch)?;
-        self.decoder.decode_stored(records, out, positions);
+        self.decoder
+            .decode_rows(records, row, rows)
+            .map_err(|e| IoError::invalid(&self.path, format!("LAZ chunk {i}: {e}")))?;
         Ok(true)
     }
 }

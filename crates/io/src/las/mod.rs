@@ -14,6 +14,7 @@ pub use record::PointFormat;
 
 use crate::{IoError, PointReader};
 use header::FileSource;
+use pointlet_core::rows::RowLayout;
 use pointlet_core::{PartError, PartedSource, PointBatch, Quantization, SourceMeta};
 use record::Decoder;
 use std::fs::File;
@@ -231,19 +232,21 @@ impl PartedSource for LasReader {
         Ok(())
     }
 
-    fn decode_part_stored(
+    fn decode_part_rows(
         &self,
         i: usize,
         q: &Quantization,
-        out: &mut PointBatch,
-        positions: &mut Vec<[i32; 3]>,
+        row: &RowLayout,
+        rows: &mut [u8],
         scratch: &mut Vec<u8>,
     ) -> Result<bool, PartError> {
-        if self.decoder.quantization() != *q {
+        if !self.decoder.fits_rows(q, row) {
             return Ok(false);
         }
         self.read_part(i, scratch)?;
-        self.decoder.decode_stored(scratch, out, positions);
+        self.decoder
+            .decode_rows(scratch, row, rows)
+            .map_err(|e| IoError::invalid(&self.path, format!("part {i}: {e}")))?;
         Ok(true)
     }
 }

@@ -5,6 +5,7 @@
 //! does; writing a legacy format turns the overlap flag back into code 12. A legacy record thus
 //! comes back byte for byte, and an extended format written from it keeps the same meaning.
 
+use pointlet_core::rows::{self, RowLayout};
 use pointlet_core::{flags, PointBatch, PointLayout, Quantization, WAVEFORM_BYTES};
 
 /// Offsets of the fields of one point data record format.
@@ -132,22 +133,33 @@ impl Decoder {
         }
     }
 
-    /// The quantization of the stored positions.
-    pub fn quantization(&self) -> Quantization {
-        self.q
+    /// Decodes the records of `raw` straight into `rows` (one row of `row` per record; `row`
+    /// has every column of [`Self::layout`]): positions as the records store them, integers
+    /// of the decoder's quantization, the other columns as [`Self::decode`] gives them, zero
+    /// where the records lack a column of `row`.
+    pub fn decode_rows(&self, raw: &[u8], row: &RowLayout, rows: &mut [u8]) -> Result<(), String> {
+        let n = raw.len() / self.record_len;
+        if n * row.len != rows.len() {
+            return Err(format!(
+                "{n} records for {} rows of {} bytes",
+                rows.len() / row.len.max(1),
+                row.len
+            ));
+        }
+        let blocks = raw[..n * self.record_len].chunks(BLOCK * self.record_len);
+        for (block, rows) in blocks.zip(rows.chunks_mut(BLOCK * row.len)) {
+            let recs = block.chunks_exact(self.record_len);
+            row.put(rows, rows::POSITION, recs.map(|r| arr::<12>(r, 0)));
+            self.decode_attributes(block, &mut Rows { row, rows });
+            row.zero_absent(&self.layout(), rows);
+        }
+        Ok(())
     }
 
-    /// Decodes every whole record of `raw` into `out` (cleared to [`Self::layout`]) but its
-    /// positions, which go to `positions` (cleared) as the records store them: integers of
-    /// [`quantization`](Self::quantization). `out.xyz` stays empty.
-    pub fn decode_stored(&self, raw: &[u8], out: &mut PointBatch, positions: &mut Vec<[i32; 3]>) {
-        out.clear(self.layout());
-        positions.clear();
-        for block in raw.chunks(BLOCK * self.record_len) {
-            let recs = block.chunks_exact(self.record_len);
-            positions.extend(recs.map(stored_position));
-            self.decode_attributes(block, out);
-        }
+    /// Whether [`Self::decode_rows`] can fill rows of `row` for a store quantized as `q`: the
+    /// records store positions of `q`, and `row` has every column they have.
+    pub fn fits_rows(&self, q: &Quantization, row: &RowLayout) -> bool {
+        self.q == *q && self.layout().union(row.layout) == row.layout
     }
 
     fn decode_block(&self, block: &[u8], out: &mut PointBatch) {
@@ -165,67 +177,174 @@ impl Decoder {
         self.decode_attributes(block, out);
     }
 
-    /// Every column but the positions.
-    fn decode_attributes(&self, block: &[u8], out: &mut PointBatch) {
+    /// Every column but the positions, into `out`.
+    fn decode_attributes(&self, block: &[u8], out: &mut impl Columns) {
         let recs = || block.chunks_exact(self.record_len);
-        out.intensity.extend(recs().map(|r| u16_at(r, 12)));
+        out.intensity(recs().map(|r| u16_at(r, 12)));
         if self.format.extended {
-            out.returns.extend(recs().map(|r| byte(r, 14)));
-            out.flags.extend(recs().map(|r| {
+            out.returns(recs().map(|r| byte(r, 14)));
+            out.flags(recs().map(|r| {
                 let b = byte(r, 15);
                 (b & 0x0F)
                     | ((b >> 6) & 1) << 4
                     | ((b >> 7) & 1) << 5
                     | ((b >> 4) & 3) << flags::CHANNEL_SHIFT
             }));
-            out.classification.extend(recs().map(|r| byte(r, 16)));
-            out.user_data.extend(recs().map(|r| byte(r, 17)));
-            out.scan_angle.extend(
+            out.classification(recs().map(|r| byte(r, 16)));
+            out.user_data(recs().map(|r| byte(r, 17)));
+            out.scan_angle(
                 recs().map(|r| f32::from(i16::from_le_bytes(arr(r, 18))) * SCAN_ANGLE_STEP),
             );
-            out.point_source_id.extend(recs().map(|r| u16_at(r, 20)));
+            out.point_source_id(recs().map(|r| u16_at(r, 20)));
         } else {
-            out.returns.extend(recs().map(|r| {
+            out.returns(recs().map(|r| {
                 let b = byte(r, 14);
                 (b & 7) | ((b >> 3) & 7) << 4
             }));
-            out.flags.extend(recs().map(|r| {
+            out.flags(recs().map(|r| {
                 let (b, c) = (byte(r, 14), byte(r, 15));
                 let overlap = u8::from(c & 0x1F == LEGACY_OVERLAP);
                 ((c >> 5) & 7) | overlap << 3 | ((b >> 6) & 1) << 4 | ((b >> 7) & 1) << 5
             }));
-            out.classification
-                .extend(recs().map(|r| match byte(r, 15) & 0x1F {
-                    LEGACY_OVERLAP => 1,
-                    c => c,
-                }));
-            out.scan_angle
-                .extend(recs().map(|r| f32::from(byte(r, 16) as i8)));
-            out.user_data.extend(recs().map(|r| byte(r, 17)));
-            out.point_source_id.extend(recs().map(|r| u16_at(r, 18)));
+            out.classification(recs().map(|r| match byte(r, 15) & 0x1F {
+                LEGACY_OVERLAP => 1,
+                c => c,
+            }));
+            out.scan_angle(recs().map(|r| f32::from(byte(r, 16) as i8)));
+            out.user_data(recs().map(|r| byte(r, 17)));
+            out.point_source_id(recs().map(|r| u16_at(r, 18)));
         }
         if let Some(at) = self.format.gps_time {
-            out.gps_time
-                .extend(recs().map(|r| f64::from_le_bytes(arr(r, at))));
+            out.gps_time(recs().map(|r| f64::from_le_bytes(arr(r, at))));
         }
         if let Some(at) = self.format.rgb {
-            out.rgb
-                .extend(recs().map(|r| [u16_at(r, at), u16_at(r, at + 2), u16_at(r, at + 4)]));
+            out.rgb(recs().map(|r| [u16_at(r, at), u16_at(r, at + 2), u16_at(r, at + 4)]));
         }
         if let Some(at) = self.format.nir {
-            out.nir.extend(recs().map(|r| u16_at(r, at)));
+            out.nir(recs().map(|r| u16_at(r, at)));
         }
         if let Some(at) = self.format.waveform {
-            out.waveform
-                .extend(recs().map(|r| arr::<WAVEFORM_BYTES>(r, at)));
+            out.waveform(recs().map(|r| arr::<WAVEFORM_BYTES>(r, at)));
         }
         if self.extra > 0 {
             let (from, to) = (self.format.size, self.format.size + self.extra);
-            for r in recs() {
-                out.extra_bytes
-                    .extend_from_slice(r.get(from..to).unwrap_or_default());
-            }
+            out.extra_bytes(recs().map(|r| r.get(from..to).unwrap_or_default()));
         }
+    }
+}
+
+/// Where [`Decoder`] puts the values of each column but the positions: batch columns, or the
+/// rows of a store being built.
+trait Columns {
+    fn intensity(&mut self, v: impl Iterator<Item = u16>);
+    fn returns(&mut self, v: impl Iterator<Item = u8>);
+    fn flags(&mut self, v: impl Iterator<Item = u8>);
+    fn classification(&mut self, v: impl Iterator<Item = u8>);
+    fn scan_angle(&mut self, v: impl Iterator<Item = f32>);
+    fn user_data(&mut self, v: impl Iterator<Item = u8>);
+    fn point_source_id(&mut self, v: impl Iterator<Item = u16>);
+    fn gps_time(&mut self, v: impl Iterator<Item = f64>);
+    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>);
+    fn nir(&mut self, v: impl Iterator<Item = u16>);
+    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>);
+    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>);
+}
+
+impl Columns for PointBatch {
+    fn intensity(&mut self, v: impl Iterator<Item = u16>) {
+        self.intensity.extend(v);
+    }
+    fn returns(&mut self, v: impl Iterator<Item = u8>) {
+        self.returns.extend(v);
+    }
+    fn flags(&mut self, v: impl Iterator<Item = u8>) {
+        self.flags.extend(v);
+    }
+    fn classification(&mut self, v: impl Iterator<Item = u8>) {
+        self.classification.extend(v);
+    }
+    fn scan_angle(&mut self, v: impl Iterator<Item = f32>) {
+        self.scan_angle.extend(v);
+    }
+    fn user_data(&mut self, v: impl Iterator<Item = u8>) {
+        self.user_data.extend(v);
+    }
+    fn point_source_id(&mut self, v: impl Iterator<Item = u16>) {
+        self.point_source_id.extend(v);
+    }
+    fn gps_time(&mut self, v: impl Iterator<Item = f64>) {
+        self.gps_time.extend(v);
+    }
+    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>) {
+        self.rgb.extend(v);
+    }
+    fn nir(&mut self, v: impl Iterator<Item = u16>) {
+        self.nir.extend(v);
+    }
+    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>) {
+        self.waveform.extend(v);
+    }
+    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>) {
+        for bytes in v {
+            self.extra_bytes.extend_from_slice(bytes);
+        }
+    }
+}
+
+/// Consecutive rows of a [`RowLayout`] that has every column the records have.
+struct Rows<'a> {
+    row: &'a RowLayout,
+    rows: &'a mut [u8],
+}
+
+impl Rows<'_> {
+    fn optional<const W: usize>(&mut self, at: Option<usize>, v: impl Iterator<Item = [u8; W]>) {
+        if let Some(at) = at {
+            self.row.put(self.rows, at, v);
+        }
+    }
+}
+
+impl Columns for Rows<'_> {
+    fn intensity(&mut self, v: impl Iterator<Item = u16>) {
+        self.row
+            .put(self.rows, rows::INTENSITY, v.map(u16::to_le_bytes));
+    }
+    fn returns(&mut self, v: impl Iterator<Item = u8>) {
+        self.row.put(self.rows, rows::RETURNS, v.map(|b| [b]));
+    }
+    fn flags(&mut self, v: impl Iterator<Item = u8>) {
+        self.row.put(self.rows, rows::FLAGS, v.map(|b| [b]));
+    }
+    fn classification(&mut self, v: impl Iterator<Item = u8>) {
+        self.row
+            .put(self.rows, rows::CLASSIFICATION, v.map(|b| [b]));
+    }
+    fn scan_angle(&mut self, v: impl Iterator<Item = f32>) {
+        self.row
+            .put(self.rows, rows::SCAN_ANGLE, v.map(f32::to_le_bytes));
+    }
+    fn user_data(&mut self, v: impl Iterator<Item = u8>) {
+        self.row.put(self.rows, rows::USER_DATA, v.map(|b| [b]));
+    }
+    fn point_source_id(&mut self, v: impl Iterator<Item = u16>) {
+        self.row
+            .put(self.rows, rows::POINT_SOURCE_ID, v.map(u16::to_le_bytes));
+    }
+    fn gps_time(&mut self, v: impl Iterator<Item = f64>) {
+        self.optional(self.row.gps_time, v.map(f64::to_le_bytes));
+    }
+    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>) {
+        self.optional(self.row.rgb, v.map(|c| rows::rgb_bytes(&c)));
+    }
+    fn nir(&mut self, v: impl Iterator<Item = u16>) {
+        self.optional(self.row.nir, v.map(u16::to_le_bytes));
+    }
+    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>) {
+        self.optional(self.row.waveform, v);
+    }
+    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>) {
+        self.row.put_extra(self.rows, v);
     }
 }
 
