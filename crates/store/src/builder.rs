@@ -3,6 +3,7 @@
 use crate::emit::{EmitPlan, Emitter, RecordLayout, Source};
 use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
 use crate::runs::{self, Run, RunFile, RunSlice, Spiller};
+use crate::sort::Pair;
 use crate::{meta, pio, pointlet_size, sort, StoreError};
 use pointlet_core::codes::KeyGrid;
 use pointlet_core::rows;
@@ -211,7 +212,7 @@ fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool
     let io_chunk = (budget / 32).clamp(256 << 10, 16 << 20) as usize;
     // A run holds its records and (key, index) pairs, and the radix pass scatters the pairs
     // into a second array; two I/O chunks (spill gather, write-out) come on top.
-    let per_point = (record + 2 * std::mem::size_of::<(u64, u32)>()) as u64;
+    let per_point = (record + 2 * std::mem::size_of::<Pair>()) as u64;
     let room = budget.saturating_sub(2 * io_chunk as u64);
     let whole = room / per_point;
     let clamp = |v: u64| v.clamp(MIN_RUN_POINTS as u64, u32::MAX as u64) as usize;
@@ -530,7 +531,7 @@ impl StoreBuilder {
             let target = add.max(expected.min(cap));
             self.run.records = vec![0; target * rb];
             self.run.records.truncate(add * rb);
-            self.run.pairs = vec![(0, 0); target];
+            self.run.pairs = vec![Pair::default(); target];
             self.run.pairs.truncate(add);
             pio::huge_pages(&self.run.records);
             pio::huge_pages(&self.run.pairs);
@@ -1148,7 +1149,7 @@ fn key_and_pack(
     rl: &RecordLayout,
     index: usize,
     recs: &mut [u8],
-    pairs: &mut [(u64, u32)],
+    pairs: &mut [Pair],
 ) -> KeyChunk {
     let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
     let mut raw = [[0i32; 3]; BLOCK];
@@ -1179,7 +1180,7 @@ fn key_rows(
     grid: KeyGrid,
     rl: &RecordLayout,
     index: usize,
-    pairs: &mut [(u64, u32)],
+    pairs: &mut [Pair],
 ) -> RawBounds {
     let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
     let mut raw = [[0i32; 3]; BLOCK];
@@ -1204,7 +1205,7 @@ fn key_block(
     q: Quantization,
     grid: KeyGrid,
     index: usize,
-    pairs: &mut [(u64, u32)],
+    pairs: &mut [Pair],
     bounds: &mut RawBounds,
 ) {
     let (lo, hi) = bounds;
@@ -1222,11 +1223,11 @@ fn key_block(
         let d = |i: usize| q.dequantize(r[i]);
         let keys = grid.hilbert4([d(0), d(1), d(2), d(3)]);
         for (i, (pair, key)) in four.iter_mut().zip(keys).enumerate() {
-            *pair = (key, (index + 4 * j + i) as u32);
+            *pair = Pair(key, (index + 4 * j + i) as u32);
         }
     }
     for (i, pair) in fours.into_remainder().iter_mut().enumerate() {
-        *pair = (
+        *pair = Pair(
             grid.hilbert(q.dequantize(raw[done + i])),
             (index + done + i) as u32,
         );
@@ -1236,9 +1237,9 @@ fn key_block(
 /// Recomputes the keys of a run from its records' quantized positions (their first 12 bytes).
 fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
     let records = &run.records;
-    run.pairs.par_iter_mut().for_each(|(key, idx)| {
-        let at = *idx as usize * rb;
-        *key = grid.hilbert(q.dequantize(rows::row_position(&records[at..at + rb])));
+    run.pairs.par_iter_mut().for_each(|pair| {
+        let at = pair.1 as usize * rb;
+        pair.0 = grid.hilbert(q.dequantize(rows::row_position(&records[at..at + rb])));
     });
 }
 

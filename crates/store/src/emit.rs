@@ -5,6 +5,7 @@
 //! stream order and in stream encoding, so splitting a record into streams is plain byte copies.
 
 use crate::format::{Plan, PointletEntry, StreamKind, TABLE_ENTRY_LEN};
+use crate::sort::Pair;
 use crate::{pio, StoreError};
 use pointlet_core::rows::{self, RowLayout};
 use pointlet_core::shuffle::{mix_seed, permutation};
@@ -68,7 +69,7 @@ pub(crate) enum Source<'a> {
     /// An in-memory run: `order[s].1` is the run index of the s-th sorted point.
     Run {
         records: &'a [u8],
-        order: &'a [(u64, u32)],
+        order: &'a [Pair],
     },
     /// A block of already sorted records starting at sorted position `first`.
     Sorted { records: &'a [u8], first: u64 },

@@ -4,6 +4,7 @@
 //! Runs cover consecutive stretches of the input, so ties between runs go to the lower run:
 //! the merged order is the same total order an in-memory sort gives.
 
+use crate::sort::Pair;
 use crate::StoreError;
 use rayon::prelude::*;
 use std::cmp::Reverse;
@@ -65,19 +66,19 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
 pub(crate) fn write_run(
     path: PathBuf,
     records: &[u8],
-    order: &[(u64, u32)],
+    order: &[Pair],
     rb: usize,
     chunk_bytes: usize,
 ) -> Result<RunFile, StoreError> {
     let (mut run, mut file) = create_run(path)?;
     let entry = 8 + rb;
     let chunk_points = (chunk_bytes / entry).max(1);
-    let gather_into = |part: &[(u64, u32)], out: &mut [u8]| {
+    let gather_into = |part: &[Pair], out: &mut [u8]| {
         out.par_chunks_mut(4096 * entry)
             .zip(part.par_chunks(4096))
             .for_each(|(o, keys)| {
-                for (e, (key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
-                    let at = *idx as usize * rb;
+                for (e, &Pair(key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
+                    let at = idx as usize * rb;
                     e[..8].copy_from_slice(&key.to_le_bytes());
                     e[8..].copy_from_slice(&records[at..at + rb]);
                 }
@@ -85,7 +86,7 @@ pub(crate) fn write_run(
     };
     run.count = order.len() as u64;
     run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
-    let gather = |part: &[(u64, u32)], buf: &mut Vec<u8>| {
+    let gather = |part: &[Pair], buf: &mut Vec<u8>| {
         buf.clear();
         buf.resize(part.len() * entry, 0);
         gather_into(part, buf);
@@ -121,7 +122,7 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
         .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
     let mut out = Run {
         records: Vec::with_capacity(n * rb),
-        pairs: (0..n as u32).map(|i| (0, i)).collect(),
+        pairs: (0..n as u32).map(|i| Pair(0, i)).collect(),
         scratch: Vec::new(),
     };
     let mut buf = vec![0u8; (chunk_bytes / entry).max(1) * entry];
@@ -143,9 +144,9 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
 #[derive(Default)]
 pub(crate) struct Run {
     pub records: Vec<u8>,
-    pub pairs: Vec<(u64, u32)>,
+    pub pairs: Vec<Pair>,
     /// The radix pass's second array, kept from one spill to the next.
-    pub scratch: Vec<(u64, u32)>,
+    pub scratch: Vec<Pair>,
 }
 
 type SpillResult = Result<(RunFile, Run), StoreError>;

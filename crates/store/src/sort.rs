@@ -9,7 +9,11 @@
 use rayon::prelude::*;
 
 /// A (Hilbert key, input index) pair; pairs are unique, so any correct sort gives one order.
-pub(crate) type Pair = (u64, u32);
+/// Packed into 12 bytes rather than a 16-byte tuple: the radix pass moves a quarter less, and
+/// a run holds more points within its budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(C, packed(4))]
+pub(crate) struct Pair(pub u64, pub u32);
 
 /// Most bits of the radix pass: 2^16 buckets of a few thousand pairs each sort inside the L2
 /// cache.
@@ -175,7 +179,7 @@ pub(crate) fn sort_buckets_at(
         .into_par_iter()
         .for_each_init(Vec::new, |tmp, s| {
             if tmp.len() < s.len() {
-                tmp.resize(s.len(), (0, 0));
+                tmp.resize(s.len(), Pair::default());
             }
             sort_bucket(s, &mut tmp[..s.len()]);
         });
@@ -282,7 +286,7 @@ fn sort_leaf(s: &mut [Pair]) {
         *q = (p.0 - min) << 8 | j as u64;
     }
     packed.sort_unstable();
-    let mut copy = [(0u64, 0u32); LEAF];
+    let mut copy = [Pair::default(); LEAF];
     let copy = &mut copy[..s.len()];
     copy.copy_from_slice(s);
     for (p, q) in s.iter_mut().zip(packed.iter()) {
@@ -311,7 +315,7 @@ pub(crate) fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
     // The radix pass's first array (already `pairs.len()` long after a scatter) is free now:
     // the buckets' sorts use it, so a spilled run's sort needs no memory beyond the two arrays
     // the budget counts.
-    scratch.resize(pairs.len(), (0, 0));
+    scratch.resize(pairs.len(), Pair::default());
     sort_buckets_in(pairs, scratch, &buckets);
 }
 
@@ -349,15 +353,22 @@ mod tests {
             radix_bits(pairs, min, 64 - (min ^ max).leading_zeros())
         };
         // Keys over the whole space: 2^b cells of ~4096 pairs.
-        let uniform: Vec<Pair> = (0..4_000_000).map(|i| (rng.next_u64() >> 4, i)).collect();
+        let uniform: Vec<Pair> = (0..4_000_000)
+            .map(|i| Pair(rng.next_u64() >> 4, i))
+            .collect();
         assert_eq!(bits(&uniform), 10);
         // The same count in 1 of every 8 top cells (a surface): three more bits.
-        let surface: Vec<Pair> = uniform.iter().map(|p| (p.0 & !(7 << 56), p.1)).collect();
+        let surface: Vec<Pair> = uniform
+            .iter()
+            .map(|p| Pair(p.0 & !(7 << 56), p.1))
+            .collect();
         assert_eq!(bits(&surface), 13);
         // Never past RADIX_BITS, however many pairs; keys varying in fewer bits use those.
-        let many: Vec<Pair> = (0..1_000_000).map(|i| (rng.next_u64() >> 1, i)).collect();
+        let many: Vec<Pair> = (0..1_000_000)
+            .map(|i| Pair(rng.next_u64() >> 1, i))
+            .collect();
         assert!(bits(&many) <= RADIX_BITS);
-        let narrow: Vec<Pair> = (0..1_000_000).map(|i| (rng.below(8), i)).collect();
+        let narrow: Vec<Pair> = (0..1_000_000).map(|i| Pair(rng.below(8), i)).collect();
         assert_eq!(bits(&narrow), 3);
     }
 
@@ -366,32 +377,36 @@ mod tests {
         let mut rng = SplitMix64::new(7);
         let n = 300_000;
         // Keys spread over 63 bits, clustered in a narrow range, and with many ties.
-        check((0..n).map(|i| (rng.next_u64() >> 1, i as u32)).collect());
         check(
             (0..n)
-                .map(|i| ((1 << 40) + rng.below(1 << 20), i as u32))
+                .map(|i| Pair(rng.next_u64() >> 1, i as u32))
                 .collect(),
         );
-        check((0..n).map(|i| (rng.below(5), i as u32)).collect());
-        check((0..n).map(|i| (42, i as u32)).collect());
-        check((0..1000).map(|i| (rng.next_u64(), i as u32)).collect());
+        check(
+            (0..n)
+                .map(|i| Pair((1 << 40) + rng.below(1 << 20), i as u32))
+                .collect(),
+        );
+        check((0..n).map(|i| Pair(rng.below(5), i as u32)).collect());
+        check((0..n).map(|i| Pair(42, i as u32)).collect());
+        check((0..1000).map(|i| Pair(rng.next_u64(), i as u32)).collect());
         check(Vec::new());
         // Pairs out of index order, and a far outlier that leaves almost every pair in one
         // top bucket (split again by a parallel pass).
         let mut far: Vec<Pair> = (0..1_200_000)
             .map(|i: u32| {
-                (
+                Pair(
                     (1 << 40) + rng.below(1 << 24),
                     (i as u64 * 7919 % 1_200_001) as u32,
                 )
             })
             .collect();
-        far.push((u64::MAX >> 1, 1_200_000));
+        far.push(Pair(u64::MAX >> 1, 1_200_000));
         check(far);
         // Points of a surface: every key in a few narrow bands, with duplicates.
         check(
             (0..400_000u32)
-                .map(|i| ((rng.below(8) << 50) + rng.below(1 << 12) * 977, i))
+                .map(|i| Pair((rng.below(8) << 50) + rng.below(1 << 12) * 977, i))
                 .collect(),
         );
     }
@@ -399,7 +414,7 @@ mod tests {
     #[test]
     fn buckets_are_in_key_order_and_cover_every_pair() {
         let mut rng = SplitMix64::new(3);
-        let mut pairs: Vec<Pair> = (0..200_000).map(|i| (rng.next_u64() >> 1, i)).collect();
+        let mut pairs: Vec<Pair> = (0..200_000).map(|i| Pair(rng.next_u64() >> 1, i)).collect();
         let mut scratch = Vec::new();
         let buckets = partition(&mut pairs, &mut scratch);
         assert!(buckets.len() > 1);
@@ -433,7 +448,7 @@ mod tests {
                 let (x, y) = (rng.below(1 << 20) as f64, rng.below(1 << 20) as f64);
                 let (x, y) = (x / 1048.576, y / 1048.576);
                 let z = 50.0 + 20.0 * (x / 90.0).sin() * (y / 70.0).cos();
-                (grid.hilbert([x, y, z]), i)
+                Pair(grid.hilbert([x, y, z]), i)
             })
             .collect();
         let mut scratch = Vec::new();
