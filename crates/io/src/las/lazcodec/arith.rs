@@ -95,14 +95,11 @@ impl<'a> Arith<'a> {
     #[inline(always)]
     pub fn bit(&mut self, m: &mut BitModel) -> u32 {
         let x = m.prob.wrapping_mul(self.length >> BIT_SHIFT);
+        // Selects, not a branch: the bit is as random as the data.
         let bit = self.value >= x;
-        if bit {
-            self.value = self.value.wrapping_sub(x);
-            self.length = self.length.wrapping_sub(x);
-        } else {
-            self.length = x;
-            m.zeros += 1;
-        }
+        self.value = self.value.wrapping_sub(if bit { x } else { 0 });
+        self.length = if bit { self.length.wrapping_sub(x) } else { x };
+        m.zeros += u32::from(!bit);
         self.renorm();
         m.until -= 1;
         if m.until == 0 {

@@ -113,12 +113,12 @@ impl<const K: usize, const KT: usize> IntDecoder<K, KT> {
                 }
             } as i32;
             // c counts the values of magnitude k: the upper half are positive (from
-            // 2^(k-1) + 1), the lower half negative (from -(2^k - 1)).
-            if c >= 1 << (k - 1) {
-                c.wrapping_add(1)
-            } else {
-                c.wrapping_sub(((1u32 << k) - 1) as i32)
-            }
+            // 2^(k-1) + 1), the lower half negative (from -(2^k - 1)). The sign is as random
+            // as the data, so it is arithmetic rather than a branch.
+            let negative = (c as u32) < 1u32 << (k - 1);
+            (c as u32)
+                .wrapping_add(1)
+                .wrapping_sub(u32::from(negative) << k) as i32
         } else {
             i32::MIN
         };
