@@ -352,21 +352,30 @@ impl<const N: usize, const T: usize> Model<N, T> {
             k += 1;
         }
         if T > 0 {
-            // Cell c holds the last symbol whose distribution starts at or before c << SHIFT.
-            let (mut cell, mut k) = (0usize, 1usize);
+            // Cell c holds the last symbol whose distribution starts at or before c << SHIFT:
+            // each symbol marks the cell it starts in (a later one overwrites an earlier), and
+            // a running maximum over the cells fills the rest, without a branch on the data.
+            let mut cell = 0;
+            while cell < T {
+                self.table[cell] = 0;
+                cell += 1;
+            }
+            let mut k = 1;
             while k < N {
-                let first =
-                    ((self.dist[k] as u32 + (1 << Self::SHIFT) - 1) >> Self::SHIFT) as usize;
-                let entry = pack(k - 1, self.dist[k - 1], self.dist[k] as u32);
-                while cell < first {
-                    self.table[cell] = entry;
-                    cell += 1;
-                }
+                let first = (self.dist[k] as usize + (1 << Self::SHIFT) - 1) >> Self::SHIFT;
+                self.table[first] = k as u64;
                 k += 1;
             }
-            let entry = pack(N - 1, self.dist[N - 1], u32::MAX);
+            let (mut cell, mut sym) = (0, 0);
             while cell < T {
-                self.table[cell] = entry;
+                let marked = self.table[cell] as usize;
+                sym = if marked > sym { marked } else { sym };
+                let end = if sym + 1 < N {
+                    self.dist[sym + 1] as u32
+                } else {
+                    u32::MAX
+                };
+                self.table[cell] = pack(sym, self.dist[sym], end);
                 cell += 1;
             }
         }
