@@ -120,8 +120,10 @@ fn a_small_store_allocates_gpu_memory_for_itself_not_the_whole_vram_budget() {
     };
     let default_budget = peak_rss(&args("2GiB"));
     let small_budget = peak_rss(&args("64MiB"));
+    // A pool of the budget would add ~1.9 GiB; under the whole suite on a busy 2-core machine
+    // the two peaks differed by 21 MiB with equal pools (alone, by less than 16).
     assert!(
-        default_budget <= small_budget + 16 * MIB,
+        default_budget <= small_budget + 64 * MIB,
         "peak RSS {} MiB with a 2 GiB budget, {} MiB with 64 MiB",
         default_budget / MIB,
         small_budget / MIB
