@@ -32,6 +32,12 @@ fn peak_rss(args: &[&str]) -> u64 {
     usage.ru_maxrss as u64 * 1024
 }
 
+/// The lower peak of two runs: a busy machine raises a single run's peak by up to 30 MiB
+/// (seen under the whole suite on 2 cores), never lowers it.
+fn least_peak_rss(args: &[&str]) -> u64 {
+    peak_rss(args).min(peak_rss(args))
+}
+
 #[test]
 fn streaming_a_larger_store_needs_no_more_memory_than_the_ram_budget() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -51,7 +57,7 @@ fn streaming_a_larger_store_needs_no_more_memory_than_the_ram_budget() {
     }
     let image = dir.path().join("out.png");
     let render = |store: &std::path::Path, ram: &str| {
-        peak_rss(&[
+        least_peak_rss(&[
             "render",
             s(store),
             "-o",
@@ -118,8 +124,8 @@ fn a_small_store_allocates_gpu_memory_for_itself_not_the_whole_vram_budget() {
             budget,
         ]
     };
-    let default_budget = peak_rss(&args("2GiB"));
-    let small_budget = peak_rss(&args("64MiB"));
+    let default_budget = least_peak_rss(&args("2GiB"));
+    let small_budget = least_peak_rss(&args("64MiB"));
     // A pool of the budget would add ~1.9 GiB; under the whole suite on a busy 2-core machine
     // the two peaks differed by 21 MiB with equal pools (alone, by less than 16).
     assert!(
