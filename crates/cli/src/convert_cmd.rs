@@ -127,11 +127,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     if let Some(s) = summary.timings.spills {
         writes += &format!(
-            "; {} runs spilled: reading waited {:.2} s for the spilling threads, which sorted \
+            "; {} runs spilled: reading waited {:.2} s for the spilling threads, which bucketed \
              {:.2} s and wrote {:.2} s in all",
             summary.runs,
             s.waited.as_secs_f64(),
-            s.sorting.as_secs_f64(),
+            s.bucketing.as_secs_f64(),
             s.writing.as_secs_f64()
         );
     }

@@ -60,15 +60,14 @@ pub fn build_bar() -> Option<Arc<dyn Fn(BuildProgress) + Send + Sync>> {
 const WHOLE: u64 = 1000;
 
 /// Share of the whole conversion each stage takes, in [`stage`] order (reading, sorting,
-/// merging, writing): reading dominates, the merge happens only with very many runs.
-const STAGE_SHARE: [f64; 4] = [0.6, 0.15, 0.05, 0.2];
+/// writing): reading dominates.
+const STAGE_SHARE: [f64; 3] = [0.6, 0.15, 0.25];
 
 fn stage(phase: BuildPhase) -> usize {
     match phase {
         BuildPhase::Reading => 0,
         BuildPhase::Sorting => 1,
-        BuildPhase::Merging => 2,
-        BuildPhase::Writing => 3,
+        BuildPhase::Writing => 2,
     }
 }
 
@@ -87,9 +86,9 @@ struct Status {
 /// reading), and once writing starts every other stage is over.
 struct Overall {
     started: Instant,
-    done: [f64; 4],
+    done: [f64; 3],
     /// When each stage was first reported, and its count then.
-    began: [Option<(Instant, u64)>; 4],
+    began: [Option<(Instant, u64)>; 3],
     fraction: f64,
 }
 
@@ -97,8 +96,8 @@ impl Overall {
     fn new(started: Instant) -> Self {
         Overall {
             started,
-            done: [0.0; 4],
-            began: [None; 4],
+            done: [0.0; 3],
+            began: [None; 3],
             fraction: 0.0,
         }
     }
@@ -185,9 +184,9 @@ mod tests {
         let s = o.update(report(BuildPhase::Sorting, 1000, 1000), at(24));
         assert!((s.fraction - 0.75).abs() < 1e-9, "{s:?}");
         assert_eq!(s.rate, Some(250.0));
-        // Writing completes the merge that never came; the last report is the whole.
+        // Writing takes the rest; the last report is the whole.
         let s = o.update(report(BuildPhase::Writing, 0, 1000), at(24));
-        assert!((s.fraction - 0.8).abs() < 1e-9, "{s:?}");
+        assert!((s.fraction - 0.75).abs() < 1e-9, "{s:?}");
         let s = o.update(report(BuildPhase::Writing, 1000, 1000), at(30));
         assert_eq!(
             s,

@@ -2,8 +2,9 @@
 
 use crate::emit::{EmitPlan, Emitter, RecordLayout, Source};
 use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
-use crate::runs::{self, Run, RunFile, RunSlice, Spiller};
+use crate::runs::{self, Bucketing, Run, RunFile, Spiller};
 use crate::sort::Pair;
+use crate::spilled::{GroupSettings, GroupSorter};
 use crate::{meta, pio, pointlet_size, sort, StoreError};
 use pointlet_core::codes::KeyGrid;
 use pointlet_core::rows;
@@ -14,7 +15,7 @@ use rayon::prelude::*;
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// The progress callback.
 type Progress = Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>;
@@ -63,10 +64,8 @@ impl std::fmt::Debug for BuildConfig {
 pub enum BuildPhase {
     /// Taking points (`done` = points pushed, `total` = points the source claims).
     Reading,
-    /// Sorting and spilling a run that outgrew the budget (`done` = points spilled).
+    /// Sorting in memory, or spilling the last run and re-keying runs (`done` = points).
     Sorting,
-    /// Merging runs into fewer, longer runs (only with very many runs).
-    Merging,
     /// Writing the store (`done` = points written).
     Writing,
 }
@@ -100,7 +99,7 @@ pub struct BuildTimings {
     pub reading: std::time::Duration,
     /// Sorting what is in memory, or the last spill and re-keying, up to the first write.
     pub sorting: std::time::Duration,
-    /// Merging (out of core), shuffling and writing the store.
+    /// Sorting the buckets (in memory) or groups (out of core), shuffling and writing the store.
     pub writing: std::time::Duration,
     /// The time the writer threads spent in writes during `writing`, added over the threads
     /// (they wait for blocks otherwise); `None` when the store was written through a mapping,
@@ -110,15 +109,15 @@ pub struct BuildTimings {
     pub spills: Option<SpillTimings>,
 }
 
-/// Where an out-of-core build's reading stage went besides decoding: runs are sorted and
-/// written on spilling threads while the next run fills.
+/// Where an out-of-core build's reading stage went besides decoding: runs are put in bucket
+/// order and written on spilling threads while the next run fills.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SpillTimings {
     /// The time filling waited for a spilling thread to take the full run (reading stage).
     pub waited: std::time::Duration,
-    /// Sorting runs, added over the runs (each sort uses every core it gets).
-    pub sorting: std::time::Duration,
-    /// Gathering runs into sorted order and writing them, added over the runs.
+    /// Putting runs in bucket order, added over the runs (each uses every core it gets).
+    pub bucketing: std::time::Duration,
+    /// Gathering runs into bucket order and writing them, added over the runs.
     pub writing: std::time::Duration,
 }
 
@@ -652,17 +651,17 @@ impl StoreBuilder {
                 "no points: the inputs gave no points",
             ));
         }
-        // Everything is on disk once a run was spilled; the merge then needs the budget.
+        // Everything is on disk once a run was spilled; the groups then need the budget.
         self.report(BuildPhase::Sorting, 0, n);
         let spilled = self.spiller.is_some();
         if spilled {
             self.spill()?;
             self.drain_spills()?;
             if let Some(s) = &self.spiller {
-                let (sorting, writing) = s.busy();
+                let (bucketing, writing) = s.busy();
                 timings.spills = Some(SpillTimings {
                     waited: self.spill_waited,
-                    sorting,
+                    bucketing,
                     writing,
                 });
             }
@@ -719,12 +718,10 @@ impl StoreBuilder {
         let reserved = pio::allocate(&file, plan.file_len)
             .map_err(io("reserving disk space for the output"))?;
         pio::write_all_at(&file, &header_bytes, PREAMBLE_LEN).map_err(io("writing the header"))?;
-        // In memory, blocks go out in order and their pages leave the process as they are
-        // written; out of core, many key ranges write at once and keep the file's buffered
-        // writes, within the merge's budget.
+        // Blocks go out in order, a stretch (in memory) or a group (out of core) at a time,
+        // and the pages of the last one leave the process as the next is computed.
         let map = match self.write_map {
             WriteMapUse::Never => None,
-            _ if spilled => None,
             WriteMapUse::HugePages => pio::WriteMap::new(&file, plan.file_len, reserved, true),
             WriteMapUse::Always => pio::WriteMap::new(&file, plan.file_len, reserved, false),
         };
@@ -741,31 +738,45 @@ impl StoreBuilder {
         };
         let rb = self.rl.len;
         let progress = self.progress.clone();
-        let mut writing_from = std::time::Instant::now();
-        let ((), table_crc, checksums_crc, writer_busy) = if spilled {
-            timings.sorting = writing_from - sorting_from;
-            let runs = std::mem::take(&mut self.runs);
-            let merge_budget = (self.ram_budget / 2) as usize;
-            let runs =
-                runs::reduce_runs(runs, rb, merge_budget, &self.run_dir, &self.stem, |d, t| {
-                    report(&progress, BuildPhase::Merging, d, t);
-                })?;
-            let merged = Emitter::run(&out, |em| {
-                merge_parallel(em, &runs, merge_budget, &progress)
-            });
-            // Removing a run frees its page cache, dirty pages and all, one page at a time:
-            // gigabytes take seconds on one thread, so the runs go in parallel.
-            runs.into_par_iter().for_each(drop);
-            merged?
+        let writing_from;
+        // Into a mapping a whole stretch or group is one block: every core on it, no waits
+        // for a block's last pointlets (1.7 against 2.1 s, GPU machine); buffered, blocks of
+        // about an I/O chunk keep the writers' memory bounded.
+        let step = if map.is_some() {
+            pointlets
         } else {
-            // Into a mapping a whole stretch is one block: every core on it, no waits for a
-            // block's last pointlets (1.7 against 2.1 s, GPU machine); buffered, blocks of about
-            // an I/O chunk keep the writers' memory bounded.
-            let step = if map.is_some() {
-                pointlets
-            } else {
-                (self.io_chunk as u64 / (k * rb as u64)).max(1)
+            (self.io_chunk as u64 / (k * rb as u64)).max(1)
+        };
+        let ((), table_crc, checksums_crc, writer_busy) = if spilled {
+            let runs = runs::join_runs(
+                std::mem::take(&mut self.runs),
+                runs::runs_kept(self.ram_budget),
+                rb,
+                (self.ram_budget / 2) as usize,
+                &self.run_dir,
+                &self.stem,
+            )?;
+            writing_from = std::time::Instant::now();
+            timings.sorting = writing_from - sorting_from;
+            let settings = GroupSettings {
+                quantization: self.quantization,
+                grid: self.grid,
+                capacity: group_capacity(self.ram_budget, rb, map.is_some(), &self.rl),
+                step,
+                io_chunk: self.io_chunk,
+                run_dir: &self.run_dir,
+                stem: &self.stem,
+                progress: progress.clone(),
             };
+            let written = Emitter::run(&out, |em| {
+                let mut groups = GroupSorter::new(em, settings);
+                groups.walk(&runs, Bucketing::top())?;
+                groups.finish()
+            });
+            // Removing a run frees what is left of its page cache: in parallel.
+            runs.into_par_iter().for_each(drop);
+            written?
+        } else {
             let (records, pairs) = (&self.run.records, &mut self.run.pairs);
             let mut scratch = Vec::new();
             let buckets = sort::partition(pairs, &mut scratch);
@@ -792,9 +803,10 @@ impl StoreBuilder {
                     let emit = || -> Result<u64, StoreError> {
                         // The last stretch's pages leave the process while this one computes.
                         em.release_before(p0);
-                        let source = Source::Run {
+                        let source = Source {
                             records,
                             order: done,
+                            first: 0,
                         };
                         let whole = if ready as u64 == n {
                             pointlets
@@ -875,16 +887,17 @@ impl StoreBuilder {
         let total: u64 = self.runs.iter().map(|r| r.count).sum();
         let mut done = 0;
         for old in std::mem::take(&mut self.runs) {
-            let mut run = runs::read_run(&old, rb, self.io_chunk)?;
+            let mut run = runs::read_run(&old, rb)?;
             done += old.count;
             drop(old);
             rekey(&mut run, rb, self.quantization, self.grid);
-            sort::sort_pairs(&mut run.pairs);
+            let starts = runs::bucket_run(&mut run, Bucketing::top());
             let path = runs::temp_name(&self.run_dir, &self.stem, "run");
             self.runs.push(runs::write_run(
                 path,
                 &run.records,
                 &run.pairs,
+                &starts,
                 rb,
                 self.io_chunk,
             )?);
@@ -945,192 +958,19 @@ fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
     }
 }
 
-/// Merges the runs into the output on every core: the key range is cut at quantiles of the
-/// runs' sparse keys, each range is merged on its own and emits its whole pointlets; the few
-/// pointlets split between two ranges are put together at the end.
-fn merge_parallel(
-    em: &Emitter<'_>,
-    runs: &[RunFile],
-    budget: usize,
-    progress: &Progress,
-) -> Result<(), StoreError> {
-    let rb = em.record_len();
-    let (k, n) = (em.k(), em.points());
-    let files = runs::open_runs(runs)?;
-    let threads = rayon::current_num_threads();
-    let mut sample: Vec<u64> = runs.iter().flat_map(|r| r.sparse.iter().copied()).collect();
-    sample.sort_unstable();
-    let ranges = (threads * 4).min(sample.len()).max(1);
-    let mut splitters: Vec<u64> = (1..ranges)
-        .map(|i| sample[i * sample.len() / ranges])
-        .collect();
-    splitters.dedup();
-    // cuts[c][r]: entries of run r below cut c; the first and last cuts are the runs' ends.
-    let inner = splitters
-        .par_iter()
-        .map(|&key| {
-            runs.iter()
-                .zip(&files)
-                .map(|(run, file)| runs::entries_below(run, file, rb, key))
-                .collect::<Result<Vec<u64>, StoreError>>()
-        })
-        .collect::<Result<Vec<_>, StoreError>>()?;
-    let mut cuts = Vec::with_capacity(inner.len() + 2);
-    cuts.push(vec![0; runs.len()]);
-    cuts.extend(inner);
-    cuts.push(runs.iter().map(|r| r.count).collect());
-    // Per thread: a cursor buffer per run and a block of records, within the budget.
-    let entry = 8 + rb;
-    let cursor_bytes = (budget / 2 / (threads * runs.len()).max(1)).clamp(entry * 16, 4 << 20);
-    let block_points = ((budget / 4 / threads / rb) as u64 / k).max(1) * k;
-    let fragments = Mutex::new(Vec::new());
-    let written = AtomicU64::new(0);
-    (0..cuts.len() - 1).into_par_iter().try_for_each(|c| {
-        let slices: Vec<RunSlice<'_>> = runs
-            .iter()
-            .zip(&files)
-            .enumerate()
-            .map(|(r, (run, file))| RunSlice {
-                run,
-                file,
-                start: cuts[c][r],
-                end: cuts[c + 1][r],
-            })
-            .filter(|s| s.start < s.end)
-            .collect();
-        let first = cuts[c].iter().sum();
-        let mut router = Router {
-            em,
-            k,
-            n,
-            rb,
-            block_points,
-            buf: Vec::new(),
-            start: first,
-            pos: first,
-            fragments: &fragments,
-            written: &written,
-            progress,
-        };
-        runs::merge(&slices, rb, cursor_bytes, |e| router.push(&e[8..]))?;
-        router.finish()
-    })?;
-    let mut fragments = fragments.into_inner().unwrap_or_else(|e| e.into_inner());
-    fragments.sort_by_key(|f: &(u64, Vec<u8>)| f.0);
-    let mut i = 0;
-    while i < fragments.len() {
-        let p = fragments[i].0 / k;
-        let (start, end) = (p * k, (p * k + k).min(n));
-        let mut records = Vec::with_capacity((end - start) as usize * rb);
-        let mut at = start;
-        while i < fragments.len() && fragments[i].0 / k == p && fragments[i].0 == at {
-            records.extend_from_slice(&fragments[i].1);
-            at += (fragments[i].1.len() / rb) as u64;
-            i += 1;
-        }
-        if at != end {
-            return Err(StoreError::build(
-                em.path(),
-                format!(
-                    "internal error: pointlet {p} was merged up to point {at} of {start}..{end}"
-                ),
-            ));
-        }
-        em.block(
-            p,
-            p + 1,
-            &Source::Sorted {
-                records: &records,
-                first: start,
-            },
-        )?;
-    }
-    // Ranges report as they finish, in any order: the last word is the total.
-    report(progress, BuildPhase::Writing, n, n);
-    Ok(())
-}
-
-/// Takes one key range's merged records in order and emits them as blocks of whole
-/// pointlets; the pieces of pointlets that the range shares with its neighbours are set aside.
-struct Router<'r> {
-    em: &'r Emitter<'r>,
-    k: u64,
-    n: u64,
-    rb: usize,
-    block_points: u64,
-    /// Records of sorted positions `start..pos`.
-    buf: Vec<u8>,
-    start: u64,
-    pos: u64,
-    fragments: &'r Mutex<Vec<(u64, Vec<u8>)>>,
-    written: &'r AtomicU64,
-    progress: &'r Progress,
-}
-
-impl Router<'_> {
-    fn push(&mut self, record: &[u8]) -> Result<(), StoreError> {
-        self.buf.extend_from_slice(record);
-        self.pos += 1;
-        if self.pos.is_multiple_of(self.k) || self.pos == self.n {
-            if !self.start.is_multiple_of(self.k) {
-                self.set_aside();
-            } else if self.pos - self.start >= self.block_points || self.pos == self.n {
-                self.flush()?;
-            }
-        }
-        Ok(())
-    }
-
-    /// Emits the whole pointlets `start..pos`.
-    fn flush(&mut self) -> Result<(), StoreError> {
-        let (p0, p1) = (self.start / self.k, self.pos.div_ceil(self.k));
-        let source = Source::Sorted {
-            records: &self.buf,
-            first: self.start,
-        };
-        self.em.block(p0, p1, &source)?;
-        let count = self.pos - self.start;
-        let done = self.written.fetch_add(count, Ordering::Relaxed) + count;
-        report(self.progress, BuildPhase::Writing, done, self.n);
-        self.buf.clear();
-        self.start = self.pos;
-        Ok(())
-    }
-
-    /// Keeps `start..pos`, part of a pointlet another range completes, for the end.
-    fn set_aside(&mut self) {
-        let piece = std::mem::take(&mut self.buf);
-        let mut fragments = self.fragments.lock().unwrap_or_else(|e| e.into_inner());
-        fragments.push((self.start, piece));
-        self.start = self.pos;
-    }
-
-    fn finish(mut self) -> Result<(), StoreError> {
-        if self.buf.is_empty() {
-            return Ok(());
-        }
-        if self.start.is_multiple_of(self.k) {
-            let whole_end = if self.pos == self.n {
-                self.n
-            } else {
-                self.pos / self.k * self.k
-            };
-            if whole_end > self.start {
-                let tail = self
-                    .buf
-                    .split_off((whole_end - self.start) as usize * self.rb);
-                let end = self.pos;
-                self.pos = whole_end;
-                self.flush()?;
-                self.buf = tail;
-                self.pos = end;
-            }
-        }
-        if !self.buf.is_empty() {
-            self.set_aside();
-        }
-        Ok(())
-    }
+/// Records a group of the out-of-core build's last phase holds at most: two groups (one
+/// emitted while the next is read and sorted), their pairs, the sort's second array, and the
+/// mapped pages of the group being written. A mapping also keeps up to two partly written
+/// 2 MiB pages of each stream (a byte stream's page spans 2 M points, several groups).
+fn group_capacity(budget: u64, record: usize, mapped: bool, rl: &RecordLayout) -> usize {
+    let per_point = (3 * record + 3 * std::mem::size_of::<Pair>()) as u64;
+    let pages = if mapped {
+        (2 * pio::HUGE * rl.fields.len()) as u64
+    } else {
+        0
+    };
+    (budget.saturating_sub(pages) / per_point).clamp(MIN_RUN_POINTS as u64, u32::MAX as u64)
+        as usize
 }
 
 /// Blocks of points keyed and packed at a time: small enough that their records stay in the

@@ -64,37 +64,20 @@ impl RecordLayout {
     }
 }
 
-/// Where the records of sorted positions come from.
-pub(crate) enum Source<'a> {
-    /// An in-memory run: `order[s].1` is the run index of the s-th sorted point.
-    Run {
-        records: &'a [u8],
-        order: &'a [Pair],
-    },
-    /// A block of already sorted records starting at sorted position `first`.
-    Sorted { records: &'a [u8], first: u64 },
+/// Where the records of sorted positions come from: `order[s].1` is the index into `records`
+/// of sorted position `first + s`.
+pub(crate) struct Source<'a> {
+    pub records: &'a [u8],
+    pub order: &'a [Pair],
+    pub first: u64,
 }
 
 impl Source<'_> {
-    fn records(&self) -> &[u8] {
-        match self {
-            Source::Run { records, .. } | Source::Sorted { records, .. } => records,
-        }
-    }
-
-    /// Indices into [`Self::records`] of sorted positions `first + perm[j]`, in j order.
+    /// Indices into `records` of sorted positions `first + perm[j]`, in j order.
     fn rows(&self, first: u64, perm: &[u32], rows: &mut Vec<u32>) {
         rows.clear();
-        match self {
-            Source::Run { order, .. } => {
-                let at = &order[first as usize..];
-                rows.extend(perm.iter().map(|&j| at[j as usize].1));
-            }
-            Source::Sorted { first: base, .. } => {
-                let at = (first - base) as u32;
-                rows.extend(perm.iter().map(|&j| at + j));
-            }
-        }
+        let at = &self.order[(first - self.first) as usize..];
+        rows.extend(perm.iter().map(|&j| at[j as usize].1));
     }
 }
 
@@ -430,7 +413,7 @@ impl<'a> Emitter<'a> {
             }
         }
         let (seed, q) = (o.seed, o.quantization);
-        let records = source.records();
+        let records = source.records;
         slices
             .into_par_iter()
             .enumerate()
@@ -556,11 +539,13 @@ mod tests {
             map: None,
         };
         let records = vec![0u8; points as usize * rl.len];
+        let order: Vec<Pair> = (0..points as u32).map(|i| Pair(0, i)).collect();
         Emitter::run(&out, |em| {
             for &(p0, p1) in blocks {
-                let source = Source::Sorted {
-                    records: &records[(p0 * k) as usize * rl.len..],
-                    first: p0 * k,
+                let source = Source {
+                    records: &records,
+                    order: &order,
+                    first: 0,
                 };
                 em.block(p0, p1, &source)?;
             }

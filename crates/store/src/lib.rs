@@ -3,8 +3,9 @@
 //!
 //! The byte layout is specified in `docs/FORMAT.md`; [`format`] holds its constants.
 //! - [`StoreBuilder`] takes [`PointBatch`](pointlet_core::PointBatch)es in any order and any
-//!   number, sorts them under a RAM budget (spilling sorted runs to disk when they do not fit),
-//!   and writes the store atomically at [`StoreBuilder::finish`].
+//!   number, sorts them under a RAM budget (spilling runs grouped by key bucket to disk when
+//!   they do not fit, then sorting a group of buckets at a time), and writes the store
+//!   atomically at [`StoreBuilder::finish`].
 //! - [`Store`] opens a store after validating its structure, and reads whole pointlets
 //!   (checksummed) or any range of a pointlet's shuffled order (one positioned read per stream).
 
@@ -22,6 +23,7 @@ mod remote;
 mod runs;
 mod sort;
 pub mod source;
+mod spilled;
 
 pub use builder::{
     BuildConfig, BuildPhase, BuildProgress, BuildSummary, BuildTimings, SpillTimings, StoreBuilder,

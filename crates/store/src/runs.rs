@@ -1,14 +1,15 @@
-//! Sorted runs on disk and their k-way merge.
+//! Spilled runs, grouped by key bucket, and reading them back.
 //!
-//! A run file is a sequence of entries `[key: u64 LE][record]` in (key, input order) order.
-//! Runs cover consecutive stretches of the input, so ties between runs go to the lower run:
-//! the merged order is the same total order an in-memory sort gives.
+//! A full run is not sorted before it is spilled: its records are written grouped by the top
+//! bits of their Hilbert keys ([`Bucketing`]), in input order inside each bucket, and the run
+//! remembers where each bucket starts. The final phase loads the same consecutive buckets of
+//! every run as one group that fits the budget and sorts it in memory; ties go to the lower
+//! run and then to input order, which is the in-memory sort's total order. A bucket too large
+//! for one group is spilled again by finer buckets; one of a single key needs no sorting.
 
 use crate::sort::Pair;
 use crate::StoreError;
 use rayon::prelude::*;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -16,8 +17,52 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
 
-/// Run files merged at once; more runs are merged in passes (bounded memory and descriptors).
-pub(crate) const MAX_FANOUT: usize = 512;
+/// Which bucket a key falls in: `(key >> shift) - base`, among `count` buckets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Bucketing {
+    pub shift: u32,
+    pub base: u64,
+    pub count: usize,
+}
+
+/// Bits of a key the first bucketing uses: 16 Ki buckets of the 63-bit Hilbert keys, 64 KiB of
+/// bucket starts a run; points on a surface fill a few hundred of them.
+const TOP_BITS: u32 = 14;
+/// Bits each finer bucketing adds, inside one bucket too large for a group.
+const SUB_BITS: u32 = 12;
+
+impl Bucketing {
+    /// The bucketing of spilled runs.
+    pub fn top() -> Bucketing {
+        let key_bits = 3 * pointlet_core::codes::KEY_BITS;
+        Bucketing {
+            shift: key_bits - TOP_BITS,
+            base: 0,
+            count: 1 << TOP_BITS,
+        }
+    }
+
+    /// The bucket of `key` (keys outside the range go to the nearest end).
+    #[inline(always)]
+    pub fn of(&self, key: u64) -> usize {
+        let b = (key >> self.shift).saturating_sub(self.base);
+        b.min(self.count as u64 - 1) as usize
+    }
+
+    /// The finer buckets inside bucket `b`; `None` where a bucket holds one key.
+    pub fn within(&self, b: usize) -> Option<Bucketing> {
+        if self.shift == 0 {
+            return None;
+        }
+        let shift = self.shift.saturating_sub(SUB_BITS);
+        let bits = self.shift - shift;
+        Some(Bucketing {
+            shift,
+            base: (self.base + b as u64) << bits,
+            count: 1 << bits,
+        })
+    }
+}
 
 /// A name for a temporary file that no other builder (in this or another process) uses.
 pub(crate) fn temp_name(dir: &Path, stem: &str, what: &str) -> PathBuf {
@@ -26,16 +71,20 @@ pub(crate) fn temp_name(dir: &Path, stem: &str, what: &str) -> PathBuf {
     dir.join(format!(".{stem}.{}.{n}.{what}", std::process::id()))
 }
 
-/// Entries between two keys of a run's sparse index.
-pub(crate) const SPARSE: usize = 1024;
-
 /// A temporary run file; dropping it removes the file.
 pub(crate) struct RunFile {
     pub path: PathBuf,
-    /// Entries in the file.
+    /// Records in the file.
     pub count: u64,
-    /// The key of every [`SPARSE`]-th entry: where to cut the run for a parallel merge.
-    pub sparse: Vec<u64>,
+    /// Where each bucket of the run's [`Bucketing`] starts, in records, and the end.
+    pub starts: Vec<u64>,
+}
+
+impl RunFile {
+    /// Records of buckets `range`: the first and one past the last.
+    pub fn span(&self, range: std::ops::Range<usize>) -> (u64, u64) {
+        (self.starts[range.start], self.starts[range.end])
+    }
 }
 
 impl Drop for RunFile {
@@ -55,42 +104,39 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
         RunFile {
             path,
             count: 0,
-            sparse: Vec::new(),
+            starts: Vec::new(),
         },
         file,
     ))
 }
 
-/// Writes the records of an in-memory run in sorted `order` as a run file, one chunk written
-/// while the next is gathered.
+/// Writes the records of an in-memory run in `order` (bucketed, bucket `b` at
+/// `order[starts[b]..starts[b + 1]]`) as a run file, one chunk written while the next is
+/// gathered.
 pub(crate) fn write_run(
     path: PathBuf,
     records: &[u8],
     order: &[Pair],
+    starts: &[usize],
     rb: usize,
     chunk_bytes: usize,
 ) -> Result<RunFile, StoreError> {
     let (mut run, mut file) = create_run(path)?;
-    let entry = 8 + rb;
-    let chunk_points = (chunk_bytes / entry).max(1);
-    let gather_into = |part: &[Pair], out: &mut [u8]| {
-        out.par_chunks_mut(4096 * entry)
+    let chunk_points = (chunk_bytes / rb.max(1)).max(1);
+    let gather = |part: &[Pair], buf: &mut Vec<u8>| {
+        buf.clear();
+        buf.resize(part.len() * rb, 0);
+        buf.par_chunks_mut(4096 * rb)
             .zip(part.par_chunks(4096))
-            .for_each(|(o, keys)| {
-                for (e, &Pair(key, idx)) in o.chunks_exact_mut(entry).zip(keys) {
+            .for_each(|(o, pairs)| {
+                for (e, &Pair(_, idx)) in o.chunks_exact_mut(rb).zip(pairs) {
                     let at = idx as usize * rb;
-                    e[..8].copy_from_slice(&key.to_le_bytes());
-                    e[8..].copy_from_slice(&records[at..at + rb]);
+                    e.copy_from_slice(&records[at..at + rb]);
                 }
             });
     };
     run.count = order.len() as u64;
-    run.sparse = order.iter().step_by(SPARSE).map(|p| p.0).collect();
-    let gather = |part: &[Pair], buf: &mut Vec<u8>| {
-        buf.clear();
-        buf.resize(part.len() * entry, 0);
-        gather_into(part, buf);
-    };
+    run.starts = starts.iter().map(|&s| s as u64).collect();
     let mut parts = order.chunks(chunk_points);
     let mut ready = Vec::new();
     let mut next = Vec::new();
@@ -114,30 +160,40 @@ pub(crate) fn write_run(
 
 /// Reads a run file back into memory: its records in file order, with pairs `(0, i)` whose
 /// keys the caller computes anew.
-pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<Run, StoreError> {
-    let entry = 8 + rb;
+pub(crate) fn read_run(run: &RunFile, rb: usize) -> Result<Run, StoreError> {
     let n = usize::try_from(run.count)
         .map_err(|_| StoreError::build(&run.path, "a run larger than memory"))?;
     let mut file = File::open(&run.path)
         .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
-    let mut out = Run {
-        records: Vec::with_capacity(n * rb),
+    let mut records = vec![0u8; n * rb];
+    file.read_exact(&mut records)
+        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
+    Ok(Run {
+        records,
         pairs: (0..n as u32).map(|i| Pair(0, i)).collect(),
         scratch: Vec::new(),
-    };
-    let mut buf = vec![0u8; (chunk_bytes / entry).max(1) * entry];
-    let mut left = n;
-    while left > 0 {
-        let take = left.min(buf.len() / entry);
-        let part = &mut buf[..take * entry];
-        file.read_exact(part)
-            .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
-        for e in part.chunks_exact(entry) {
-            out.records.extend_from_slice(&e[8..]);
-        }
-        left -= take;
-    }
-    Ok(out)
+    })
+}
+
+/// Reads records `from..from + out.len() / rb` of a run into `out`, then gives their pages
+/// back: every record is read once, and freeing them here, on the loading threads, spares the
+/// seconds that removing gigabytes of runs at the end would take.
+pub(crate) fn read_records(
+    run: &RunFile,
+    from: u64,
+    rb: usize,
+    out: &mut [u8],
+) -> Result<(), StoreError> {
+    let file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&run.path)
+        .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+    let at = from * rb as u64;
+    crate::pio::read_exact_at(&file, out, at)
+        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
+    crate::pio::release(&file, at, out.len() as u64);
+    Ok(())
 }
 
 /// A run in memory: records in input order and their (key, index) pairs.
@@ -145,22 +201,29 @@ pub(crate) fn read_run(run: &RunFile, rb: usize, chunk_bytes: usize) -> Result<R
 pub(crate) struct Run {
     pub records: Vec<u8>,
     pub pairs: Vec<Pair>,
-    /// The radix pass's second array, kept from one spill to the next.
+    /// The bucketing pass's second array, kept from one spill to the next.
     pub scratch: Vec<Pair>,
+}
+
+/// Puts a run's pairs in bucket order, stable inside a bucket; where each bucket starts.
+pub(crate) fn bucket_run(run: &mut Run, bucketing: Bucketing) -> Vec<usize> {
+    crate::sort::bucket_by(&mut run.pairs, &mut run.scratch, bucketing.count, |k| {
+        bucketing.of(k)
+    })
 }
 
 type SpillResult = Result<(RunFile, Run), StoreError>;
 
-/// Runs sorted and written at once, each to its own file, while the next fills. With one,
-/// filling waited 3.2–3.6 s of a 200 M-point build's 4.9–5.6 s reading stage for the spiller
-/// (sort, then gather and write, one run after another); with two, 1.2–1.4 s of 3.9–4.2 s,
-/// and three were no faster (GPU machine, docs/BENCHMARKS.md).
+/// Runs bucketed and written at once, each to its own file, while the next fills. With one
+/// (when runs were sorted), filling waited 3.2–3.6 s of a 200 M-point build's 4.9–5.6 s
+/// reading stage for the spiller; with two, 1.2–1.4 s of 3.9–4.2 s, and three were no faster
+/// (GPU machine, docs/BENCHMARKS.md).
 pub(crate) const SPILLERS: usize = 2;
 
 /// A run to spill, and where to send the result.
 type SpillJob = (PathBuf, Run, SyncSender<SpillResult>);
 
-/// Sorts and writes full runs on threads of their own while the next run fills; hands the
+/// Buckets and writes full runs on threads of their own while the next run fills; hands the
 /// emptied buffers back for reuse. Results are taken in the order the runs were started.
 pub(crate) struct Spiller {
     jobs: Option<SyncSender<SpillJob>>,
@@ -169,10 +232,10 @@ pub(crate) struct Spiller {
     busy: std::sync::Arc<SpillBusy>,
 }
 
-/// Nanoseconds the spilling threads spent sorting runs and writing them, added over the runs.
+/// Nanoseconds the spilling threads spent bucketing runs and writing them, added over the runs.
 #[derive(Default)]
 struct SpillBusy {
-    sorting: AtomicU64,
+    bucketing: AtomicU64,
     writing: AtomicU64,
 }
 
@@ -190,19 +253,21 @@ impl Spiller {
                         return;
                     };
                     let started = std::time::Instant::now();
-                    crate::sort::sort_pairs_with(&mut run.pairs, &mut run.scratch);
-                    let sorted = std::time::Instant::now();
+                    let starts = bucket_run(&mut run, Bucketing::top());
+                    let bucketed = std::time::Instant::now();
                     let result =
-                        write_run(path, &run.records, &run.pairs, rb, chunk_bytes).map(|f| {
-                            run.records.clear();
-                            run.pairs.clear();
-                            (f, run)
-                        });
+                        write_run(path, &run.records, &run.pairs, &starts, rb, chunk_bytes).map(
+                            |f| {
+                                run.records.clear();
+                                run.pairs.clear();
+                                (f, run)
+                            },
+                        );
                     let nanos = |d: std::time::Duration| d.as_nanos() as u64;
-                    busy.sorting
-                        .fetch_add(nanos(sorted - started), Ordering::Relaxed);
+                    busy.bucketing
+                        .fetch_add(nanos(bucketed - started), Ordering::Relaxed);
                     busy.writing
-                        .fetch_add(nanos(sorted.elapsed()), Ordering::Relaxed);
+                        .fetch_add(nanos(bucketed.elapsed()), Ordering::Relaxed);
                     // A dropped receiver means the build was abandoned; the run file goes too.
                     let _ = reply.send(result);
                 })
@@ -216,10 +281,10 @@ impl Spiller {
         }
     }
 
-    /// The time spent sorting runs and writing them so far, each added over the runs.
+    /// The time spent bucketing runs and writing them so far, each added over the runs.
     pub fn busy(&self) -> (std::time::Duration, std::time::Duration) {
         let d = |ns: &AtomicU64| std::time::Duration::from_nanos(ns.load(Ordering::Relaxed));
-        (d(&self.busy.sorting), d(&self.busy.writing))
+        (d(&self.busy.bucketing), d(&self.busy.writing))
     }
 
     fn stopped(path: &Path) -> StoreError {
@@ -261,214 +326,138 @@ impl Drop for Spiller {
     }
 }
 
-/// Entries `[start, end)` of one run, and the open file to read them from.
-pub(crate) struct RunSlice<'a> {
-    pub run: &'a RunFile,
-    pub file: &'a File,
-    pub start: u64,
-    pub end: u64,
+/// Runs at most that each keep their bucket starts in memory: beyond them (a tiny budget, a
+/// huge input), consecutive runs are joined first.
+pub(crate) fn runs_kept(budget: u64) -> usize {
+    let starts = ((Bucketing::top().count + 1) * std::mem::size_of::<u64>()) as u64;
+    ((budget / 8 / starts) as usize).max(JOINED)
 }
 
-/// Reads a stretch of a run file front to back through a buffer of whole entries, with
-/// positioned reads so that many cursors can share one file.
-struct Cursor<'a> {
-    slice: &'a RunSlice<'a>,
-    entry: usize,
-    buf: Vec<u8>,
-    pos: usize,
-    end: usize,
-    /// Next entry to load from the file.
-    next: u64,
-}
+/// Runs joined into one at a time.
+const JOINED: usize = 32;
 
-impl<'a> Cursor<'a> {
-    fn new(slice: &'a RunSlice<'a>, entry: usize, buf_bytes: usize) -> Cursor<'a> {
-        let per_fill = (buf_bytes / entry).max(1) as u64;
-        let len = per_fill.min(slice.end - slice.start) as usize * entry;
-        Cursor {
-            slice,
-            entry,
-            buf: vec![0u8; len],
-            pos: 0,
-            end: 0,
-            next: slice.start,
-        }
-    }
-
-    /// Loads the next entries; false at the end of the stretch.
-    fn fill(&mut self) -> Result<bool, StoreError> {
-        let left = self.slice.end - self.next;
-        if left == 0 {
-            return Ok(false);
-        }
-        let n = ((self.buf.len() / self.entry) as u64).min(left) as usize;
-        let bytes = n * self.entry;
-        let at = self.next * self.entry as u64;
-        crate::pio::read_exact_at(self.slice.file, &mut self.buf[..bytes], at)
-            .map_err(|e| StoreError::io(&self.slice.run.path, "reading a temporary run file", e))?;
-        // Each entry is read once: its pages are freed now, on the merging threads, rather
-        // than all at once when the runs are removed (1–4 s for 9 GB of runs on one build).
-        crate::pio::release(self.slice.file, at, bytes as u64);
-        self.pos = 0;
-        self.end = bytes;
-        self.next += n as u64;
-        Ok(true)
-    }
-
-    fn current(&self) -> &[u8] {
-        &self.buf[self.pos..self.pos + self.entry]
-    }
-
-    fn key(&self) -> u64 {
-        u64::from_le_bytes(crate::format::array(&self.buf[self.pos..self.pos + 8]))
-    }
-
-    /// Moves to the next entry; false at the end of the stretch.
-    fn advance(&mut self) -> Result<bool, StoreError> {
-        self.pos += self.entry;
-        if self.pos < self.end {
-            return Ok(true);
-        }
-        self.fill()
-    }
-}
-
-/// Merges `slices` (in input order) and hands every entry `[key][record]` to `sink` in
-/// (key, input order) order. Returns the number of entries.
-pub(crate) fn merge(
-    slices: &[RunSlice<'_>],
-    rb: usize,
-    buf_bytes: usize,
-    mut sink: impl FnMut(&[u8]) -> Result<(), StoreError>,
-) -> Result<u64, StoreError> {
-    let entry = 8 + rb;
-    let mut cursors = Vec::with_capacity(slices.len());
-    let mut heap = BinaryHeap::with_capacity(slices.len());
-    for (i, slice) in slices.iter().enumerate() {
-        let mut c = Cursor::new(slice, entry, buf_bytes);
-        if c.fill()? {
-            heap.push(Reverse((c.key(), i)));
-        }
-        cursors.push(c);
-    }
-    let mut count = 0u64;
-    while let Some(mut top) = heap.peek_mut() {
-        let Reverse((_, i)) = *top;
-        let c = &mut cursors[i];
-        sink(c.current())?;
-        count += 1;
-        if c.advance()? {
-            // Replacing the top in place costs one sift-down instead of a pop and a push.
-            *top = Reverse((c.key(), i));
-        } else {
-            std::collections::binary_heap::PeekMut::pop(top);
-        }
-    }
-    Ok(count)
-}
-
-/// Opens every run for positioned reads (and writable: the merge frees what it has read).
-pub(crate) fn open_runs(runs: &[RunFile]) -> Result<Vec<File>, StoreError> {
-    runs.iter()
-        .map(|r| {
-            OpenOptions::new()
-                .read(true)
-                .write(true)
-                .open(&r.path)
-                .map_err(|e| StoreError::io(&r.path, "opening a temporary run file", e))
-        })
-        .collect()
-}
-
-/// Entries of `run` whose key is below `key`: the sparse index finds the stretch of
-/// [`SPARSE`] entries, one positioned read of it the exact place.
-pub(crate) fn entries_below(
-    run: &RunFile,
-    file: &File,
-    rb: usize,
-    key: u64,
-) -> Result<u64, StoreError> {
-    let j = run.sparse.partition_point(|&k| k < key);
-    if j == 0 {
-        return Ok(0);
-    }
-    // Entry (j - 1)·SPARSE is below `key`, entry j·SPARSE (if any) is not.
-    let lo = ((j - 1) * SPARSE) as u64 + 1;
-    let hi = ((j * SPARSE) as u64).min(run.count);
-    if lo >= hi {
-        return Ok(hi);
-    }
-    let entry = 8 + rb;
-    let mut buf = vec![0u8; (hi - lo) as usize * entry];
-    crate::pio::read_exact_at(file, &mut buf, lo * entry as u64)
-        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
-    let below = buf
-        .chunks_exact(entry)
-        .take_while(|e| u64::from_le_bytes(crate::format::array(&e[..8])) < key)
-        .count();
-    Ok(lo + below as u64)
-}
-
-/// Merges consecutive groups of runs until at most [`MAX_FANOUT`] remain.
-pub(crate) fn reduce_runs(
+/// Joins consecutive runs, [`JOINED`] at a time on every core, until at most `kept` remain.
+pub(crate) fn join_runs(
     mut runs: Vec<RunFile>,
+    kept: usize,
     rb: usize,
     buf_bytes: usize,
     dir: &Path,
     stem: &str,
-    mut progress: impl FnMut(u64, u64),
 ) -> Result<Vec<RunFile>, StoreError> {
-    while runs.len() > MAX_FANOUT {
-        let total: u64 = runs.iter().map(|r| r.count).sum();
-        let mut merged_points = 0u64;
-        let mut next = Vec::with_capacity(runs.len().div_ceil(MAX_FANOUT));
-        let mut rest = runs.into_iter();
-        loop {
-            let group: Vec<RunFile> = rest.by_ref().take(MAX_FANOUT).collect();
-            if group.is_empty() {
-                break;
+    while runs.len() > kept.max(1) {
+        let groups: Vec<Vec<RunFile>> = {
+            let mut rest = runs.into_iter().peekable();
+            let mut groups = Vec::new();
+            while rest.peek().is_some() {
+                groups.push(rest.by_ref().take(JOINED).collect());
             }
-            if group.len() == 1 {
-                next.extend(group);
-                continue;
-            }
-            let (mut run, file) = create_run(temp_name(dir, stem, "run"))?;
-            let mut w = std::io::BufWriter::with_capacity(buf_bytes.max(1 << 16), file);
-            let per_group = buf_bytes / group.len();
-            let files = open_runs(&group)?;
-            let slices: Vec<RunSlice<'_>> = group
-                .iter()
-                .zip(&files)
-                .map(|(run, file)| RunSlice {
-                    run,
-                    file,
-                    start: 0,
-                    end: run.count,
-                })
-                .collect();
-            let mut sparse = Vec::new();
-            let mut seen = 0usize;
-            let count = merge(&slices, rb, per_group, |e| {
-                if seen.is_multiple_of(SPARSE) {
-                    sparse.push(u64::from_le_bytes(crate::format::array(&e[..8])));
-                }
-                seen += 1;
-                w.write_all(e)
-                    .map_err(|err| StoreError::io(&run.path, "writing a temporary run file", err))
-            })?;
-            run.sparse = sparse;
-            w.flush()
-                .map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
-            run.count = count;
-            merged_points += count;
-            progress(merged_points, total);
-            // The group's files go away here; the merged run replaces them.
-            drop(slices);
-            drop(files);
-            drop(group);
-            next.push(run);
-        }
-        runs = next;
+            groups
+        };
+        let buf = (buf_bytes / groups.len().min(rayon::current_num_threads())).max(1 << 16);
+        runs = groups
+            .into_par_iter()
+            .map(|group| match group.len() {
+                1 => group.into_iter().next().ok_or_else(|| {
+                    StoreError::build(dir, "internal error: an empty group of runs")
+                }),
+                _ => join(&group, temp_name(dir, stem, "run"), rb, buf),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
     }
     Ok(runs)
+}
+
+/// One run of `group` (consecutive runs of the same bucketing): bucket by bucket, each
+/// bucket's records of every run in run order, which is how groups read them.
+fn join(
+    group: &[RunFile],
+    path: PathBuf,
+    rb: usize,
+    buf_bytes: usize,
+) -> Result<RunFile, StoreError> {
+    let (mut out, file) = create_run(path)?;
+    let mut w = std::io::BufWriter::with_capacity(buf_bytes / 2, file);
+    let per_run = (buf_bytes / 2 / group.len() / rb).max(1);
+    let mut readers = group
+        .iter()
+        .map(|run| RunReader::new(run, rb, per_run))
+        .collect::<Result<Vec<_>, _>>()?;
+    let buckets = group.first().map_or(0, |r| r.starts.len() - 1);
+    let mut starts = Vec::with_capacity(buckets + 1);
+    let mut at = 0u64;
+    for b in 0..buckets {
+        starts.push(at);
+        for (run, reader) in group.iter().zip(&mut readers) {
+            let mut left = run.starts[b + 1] - run.starts[b];
+            at += left;
+            while left > 0 {
+                let records = reader.take(left)?;
+                w.write_all(records)
+                    .map_err(|e| StoreError::io(&out.path, "writing a temporary run file", e))?;
+                left -= (records.len() / rb) as u64;
+            }
+        }
+    }
+    starts.push(at);
+    w.flush()
+        .map_err(|e| StoreError::io(&out.path, "writing a temporary run file", e))?;
+    out.count = at;
+    out.starts = starts;
+    Ok(out)
+}
+
+/// Reads a run front to back through a buffer, giving its pages back as it goes.
+struct RunReader<'a> {
+    run: &'a RunFile,
+    file: File,
+    rb: usize,
+    buf: Vec<u8>,
+    pos: usize,
+    end: usize,
+    /// Next record to load from the file.
+    next: u64,
+}
+
+impl<'a> RunReader<'a> {
+    fn new(run: &'a RunFile, rb: usize, records: usize) -> Result<Self, StoreError> {
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&run.path)
+            .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+        let records = (records as u64).min(run.count) as usize;
+        Ok(RunReader {
+            run,
+            file,
+            rb,
+            buf: vec![0; records * rb],
+            pos: 0,
+            end: 0,
+            next: 0,
+        })
+    }
+
+    /// The next records, at most `max` (at least one while the run has any).
+    fn take(&mut self, max: u64) -> Result<&[u8], StoreError> {
+        if self.pos == self.end {
+            let n = ((self.buf.len() / self.rb) as u64).min(self.run.count - self.next);
+            if n == 0 {
+                return Err(StoreError::build(
+                    &self.run.path,
+                    "internal error: a run ended before its buckets did",
+                ));
+            }
+            let bytes = n as usize * self.rb;
+            let at = self.next * self.rb as u64;
+            crate::pio::read_exact_at(&self.file, &mut self.buf[..bytes], at)
+                .map_err(|e| StoreError::io(&self.run.path, "reading a temporary run file", e))?;
+            crate::pio::release(&self.file, at, bytes as u64);
+            (self.pos, self.end, self.next) = (0, bytes, self.next + n);
+        }
+        let n = ((self.end - self.pos) / self.rb).min(max as usize);
+        let from = self.pos;
+        self.pos += n * self.rb;
+        Ok(&self.buf[from..self.pos])
+    }
 }

@@ -106,7 +106,6 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
 /// # Safety
 /// `dst` must be valid for writes of `pairs.len()` pairs that nothing else touches meanwhile.
 unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
-    let n = pairs.len();
     let (min, max) = pairs
         .par_iter()
         .fold(|| (u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)))
@@ -119,7 +118,44 @@ unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
     let shift = varying - bits;
     let base = min >> shift;
     let nb = ((max >> shift) - base + 1) as usize;
-    let bucket = |k: u64| ((k >> shift) - base) as usize;
+    // SAFETY: passed on from the caller.
+    Some(unsafe { scatter_by(pairs, dst, nb, |k| ((k >> shift) - base) as usize) })
+}
+
+/// Scatters `pairs` into `nb` buckets by `bucket` (below `nb` for every key), in bucket order
+/// and stable inside a bucket, on every core; returns where each bucket starts (and the end).
+pub(crate) fn bucket_by(
+    pairs: &mut Vec<Pair>,
+    scratch: &mut Vec<Pair>,
+    nb: usize,
+    bucket: impl Fn(u64) -> usize + Sync,
+) -> Vec<usize> {
+    let n = pairs.len();
+    scratch.clear();
+    scratch.reserve_exact(n);
+    crate::pio::huge_pages(scratch);
+    let dst = SharedOut(scratch.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
+    // SAFETY: the spare capacity holds n pairs; `bucket` stays below nb.
+    let starts = unsafe { scatter_by(pairs, &dst, nb, bucket) };
+    // SAFETY: the scatter wrote every one of the n slots exactly once.
+    unsafe { scratch.set_len(n) };
+    std::mem::swap(pairs, scratch);
+    starts
+}
+
+/// Writes `pairs` to `dst` by `bucket` (stable inside a bucket), every one of `pairs.len()`
+/// slots once, and returns the `nb + 1` bucket boundaries.
+///
+/// # Safety
+/// `dst` must be valid for writes of `pairs.len()` pairs that nothing else touches meanwhile,
+/// and `bucket` below `nb` for every key of `pairs`.
+unsafe fn scatter_by(
+    pairs: &[Pair],
+    dst: &SharedOut,
+    nb: usize,
+    bucket: impl Fn(u64) -> usize + Sync,
+) -> Vec<usize> {
+    let n = pairs.len();
     // A few chunks per thread: each counts its pairs per bucket, then scatters them.
     let chunk = n.div_ceil(rayon::current_num_threads() * 4).max(SMALL / 4);
     let counts: Vec<Vec<u32>> = pairs
@@ -155,7 +191,7 @@ unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
                 off[b] += 1;
             }
         });
-    Some(starts)
+    starts
 }
 
 /// Sorts buckets `range` of `pairs` (each on its own, in parallel).
@@ -186,7 +222,7 @@ pub(crate) fn sort_buckets_at(
 }
 
 /// [`sort_buckets`] of every bucket, with `tmp` (as long as `pairs`) as the second array.
-fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Buckets) {
+pub(crate) fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Buckets) {
     let all = 0..buckets.len();
     bucket_slices(pairs, buckets, all.clone())
         .into_par_iter()
@@ -304,13 +340,14 @@ fn sort_leaf(s: &mut [Pair]) {
 }
 
 /// Sorts pairs by key, ties by input index.
-pub(crate) fn sort_pairs(pairs: &mut Vec<Pair>) {
+#[cfg(test)]
+fn sort_pairs(pairs: &mut Vec<Pair>) {
     sort_pairs_with(pairs, &mut Vec::new());
 }
 
-/// [`sort_pairs`] with the radix pass's second array given (and kept: a run spilled after
-/// another reuses it instead of faulting in fresh pages).
-pub(crate) fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
+/// [`sort_pairs`] with the radix pass's second array given.
+#[cfg(test)]
+fn sort_pairs_with(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) {
     let buckets = partition(pairs, scratch);
     // The radix pass's first array (already `pairs.len()` long after a scatter) is free now:
     // the buckets' sorts use it, so a spilled run's sort needs no memory beyond the two arrays

@@ -51,12 +51,12 @@ fn in_memory_and_out_of_core_builds_are_byte_identical_and_clean() {
         &batches,
     );
     assert!(s_unclaimed.runs > 1);
-    // Only builds that spilled account for their spilling threads, which sorted and wrote.
+    // Only builds that spilled account for their spilling threads, which bucketed and wrote.
     assert_eq!(s_mem.timings.spills, None);
     for s in [&s_ooc, &s_beside, &s_unclaimed] {
         let spills = s.timings.spills.expect("spill timings");
         assert!(
-            !spills.sorting.is_zero() && !spills.writing.is_zero(),
+            !spills.bucketing.is_zero() && !spills.writing.is_zero(),
             "{spills:?}"
         );
     }
@@ -80,9 +80,9 @@ fn in_memory_and_out_of_core_builds_are_byte_identical_and_clean() {
 }
 
 #[test]
-fn many_runs_merge_in_passes_to_the_same_store() {
+fn many_runs_give_the_same_store() {
     let dir = tempfile::tempdir().unwrap();
-    // 4096-point runs: more than the 128 merged at once.
+    // 4096-point runs, and groups of 4096 points read from 130 runs at a time.
     let n = 4096 * 130 + 17;
     let layout = PointLayout::default();
     let batches = batches(layout, n, 100_000, 2);
@@ -561,4 +561,40 @@ fn a_damaged_part_fails_the_build_with_the_readers_message_and_leaves_nothing() 
     assert_eq!(e, "part 5 is damaged");
     drop(b);
     assert!(listing(dir.path()).is_empty(), "files left behind");
+}
+
+/// Points crowded into one bucket of the spilled runs (a dense cluster, and thousands of copies
+/// of one point) are spilled again by finer buckets, down to single keys, and give the store
+/// the in-memory build gives, whatever the pointlet size.
+#[test]
+fn crowded_and_repeated_points_give_the_same_store_out_of_core() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 30_000;
+    let mut input = batches(RGB_GPS_EXTRA, n, 3_000, 11);
+    let mut rng = pointlet_core::shuffle::SplitMix64::new(5);
+    for (i, p) in input.iter_mut().flat_map(|b| b.xyz.iter_mut()).enumerate() {
+        if i % 3 == 0 {
+            *p = [1234.5, -1800.25, 17.0];
+        } else if i % 3 == 1 && i % 4 != 1 {
+            // A box of 0.2 m: one bucket of the first bucketing, several of the finer ones.
+            *p = [
+                1100.0 + rng.unit_f64() * 0.2,
+                -1900.0 + rng.unit_f64() * 0.2,
+                5.0 + rng.unit_f64() * 0.2,
+            ];
+        }
+    }
+    let m = meta(RGB_GPS_EXTRA, n as u64);
+    for pointlets in [100, 1] {
+        let mem = dir.path().join(format!("mem-{pointlets}.pointlet"));
+        let ooc = dir.path().join(format!("ooc-{pointlets}.pointlet"));
+        build(&mem, config(1 << 30, pointlets, 4), &m, &input);
+        let s = build(&ooc, config(0, pointlets, 4), &m, &input);
+        assert!(s.runs > 5, "{} runs", s.runs);
+        assert!(
+            std::fs::read(&mem).unwrap() == std::fs::read(&ooc).unwrap(),
+            "{pointlets} pointlets: out of core differs from in memory"
+        );
+    }
+    assert_eq!(listing(dir.path()).len(), 4, "temporary files left");
 }
