@@ -750,7 +750,6 @@ impl StoreBuilder {
         let ((), table_crc, checksums_crc, writer_busy) = if spilled {
             let runs = runs::join_runs(
                 std::mem::take(&mut self.runs),
-                runs::runs_kept(self.ram_budget),
                 rb,
                 (self.ram_budget / 2) as usize,
                 &self.run_dir,

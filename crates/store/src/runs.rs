@@ -1,8 +1,9 @@
 //! Spilled runs, grouped by key bucket, and reading them back.
 //!
 //! A full run is not sorted before it is spilled: its records are written grouped by the top
-//! bits of their Hilbert keys ([`Bucketing`]), in input order inside each bucket, and the run
-//! remembers where each bucket starts. The final phase loads the same consecutive buckets of
+//! bits of their Hilbert keys ([`Bucketing`]), in input order inside each bucket, followed by
+//! where each bucket starts (read back when needed: a run keeps nothing per bucket in memory,
+//! which with tiny budgets and many runs would outgrow the budget). The final phase loads the same consecutive buckets of
 //! every run as one group that fits the budget and sorts it in memory; ties go to the lower
 //! run and then to input order, which is the in-memory sort's total order. A bucket too large
 //! for one group is spilled again by finer buckets; one of a single key needs no sorting.
@@ -25,8 +26,8 @@ pub(crate) struct Bucketing {
     pub count: usize,
 }
 
-/// Bits of a key the first bucketing uses: 16 Ki buckets of the 63-bit Hilbert keys, 64 KiB of
-/// bucket starts a run; points on a surface fill a few hundred of them.
+/// Bits of a key the first bucketing uses: 16 Ki buckets of the 63-bit Hilbert keys (128 KiB of
+/// bucket starts a run); points on a surface fill a few hundred of them.
 const TOP_BITS: u32 = 14;
 /// Bits each finer bucketing adds, inside one bucket too large for a group.
 const SUB_BITS: u32 = 12;
@@ -76,15 +77,45 @@ pub(crate) struct RunFile {
     pub path: PathBuf,
     /// Records in the file.
     pub count: u64,
-    /// Where each bucket of the run's [`Bucketing`] starts, in records, and the end.
-    pub starts: Vec<u64>,
+    /// Bytes per record.
+    pub rb: usize,
+    /// Buckets of the run's [`Bucketing`]: after the records, the file holds where each starts
+    /// (in records, `u64` little-endian) and the end.
+    pub buckets: usize,
 }
 
 impl RunFile {
-    /// Records of buckets `range`: the first and one past the last.
-    pub fn span(&self, range: std::ops::Range<usize>) -> (u64, u64) {
-        (self.starts[range.start], self.starts[range.end])
+    /// Where buckets `range.start..=range.end` start (the last: where bucket `range.end - 1`
+    /// ends), read from the run's file.
+    pub fn starts(&self, range: std::ops::Range<usize>) -> Result<Vec<u64>, StoreError> {
+        if range.end > self.buckets || range.start > range.end {
+            return Err(StoreError::build(
+                &self.path,
+                format!("internal error: buckets {range:?} of {}", self.buckets),
+            ));
+        }
+        let file = File::open(&self.path)
+            .map_err(|e| StoreError::io(&self.path, "opening a temporary run file", e))?;
+        let mut raw = vec![0u8; (range.len() + 1) * 8];
+        let at = self.count * self.rb as u64 + range.start as u64 * 8;
+        crate::pio::read_exact_at(&file, &mut raw, at)
+            .map_err(|e| StoreError::io(&self.path, "reading a temporary run file", e))?;
+        Ok(raw
+            .chunks_exact(8)
+            .map(|b| u64::from_le_bytes(crate::format::array(b)))
+            .collect())
     }
+
+    /// Records of buckets `range`: the first and one past the last.
+    pub fn span(&self, range: std::ops::Range<usize>) -> Result<(u64, u64), StoreError> {
+        let s = self.starts(range)?;
+        Ok((s[0], s[s.len() - 1]))
+    }
+}
+
+/// A run's bucket starts as the bytes that follow its records.
+fn starts_bytes(starts: impl Iterator<Item = u64>) -> Vec<u8> {
+    starts.flat_map(u64::to_le_bytes).collect()
 }
 
 impl Drop for RunFile {
@@ -94,7 +125,7 @@ impl Drop for RunFile {
 }
 
 /// Creates a run file for writing; the returned guard removes it again when dropped.
-pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
+pub(crate) fn create_run(path: PathBuf, rb: usize) -> Result<(RunFile, File), StoreError> {
     let file = pointlet_core::cleanup::create(
         &path,
         OpenOptions::new().read(true).write(true).create_new(true),
@@ -104,7 +135,8 @@ pub(crate) fn create_run(path: PathBuf) -> Result<(RunFile, File), StoreError> {
         RunFile {
             path,
             count: 0,
-            starts: Vec::new(),
+            rb,
+            buckets: 0,
         },
         file,
     ))
@@ -121,7 +153,7 @@ pub(crate) fn write_run(
     rb: usize,
     chunk_bytes: usize,
 ) -> Result<RunFile, StoreError> {
-    let (mut run, mut file) = create_run(path)?;
+    let (mut run, mut file) = create_run(path, rb)?;
     let chunk_points = (chunk_bytes / rb.max(1)).max(1);
     let gather = |part: &[Pair], buf: &mut Vec<u8>| {
         buf.clear();
@@ -136,7 +168,7 @@ pub(crate) fn write_run(
             });
     };
     run.count = order.len() as u64;
-    run.starts = starts.iter().map(|&s| s as u64).collect();
+    run.buckets = starts.len() - 1;
     let mut parts = order.chunks(chunk_points);
     let mut ready = Vec::new();
     let mut next = Vec::new();
@@ -155,6 +187,8 @@ pub(crate) fn write_run(
         written.map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
         std::mem::swap(&mut ready, &mut next);
     }
+    file.write_all(&starts_bytes(starts.iter().map(|&s| s as u64)))
+        .map_err(|e| StoreError::io(&run.path, "writing a temporary run file", e))?;
     Ok(run)
 }
 
@@ -326,12 +360,10 @@ impl Drop for Spiller {
     }
 }
 
-/// Runs at most that each keep their bucket starts in memory: beyond them (a tiny budget, a
-/// huge input), consecutive runs are joined first.
-pub(crate) fn runs_kept(budget: u64) -> usize {
-    let starts = ((Bucketing::top().count + 1) * std::mem::size_of::<u64>()) as u64;
-    ((budget / 8 / starts) as usize).max(JOINED)
-}
+/// Runs at most that a group reads from: beyond them (a tiny budget, a huge input), each group
+/// would read a few records from each of thousands of runs, so consecutive runs are joined
+/// first.
+pub(crate) const RUNS_KEPT: usize = 512;
 
 /// Runs joined into one at a time.
 const JOINED: usize = 32;
@@ -339,13 +371,12 @@ const JOINED: usize = 32;
 /// Joins consecutive runs, [`JOINED`] at a time on every core, until at most `kept` remain.
 pub(crate) fn join_runs(
     mut runs: Vec<RunFile>,
-    kept: usize,
     rb: usize,
     buf_bytes: usize,
     dir: &Path,
     stem: &str,
 ) -> Result<Vec<RunFile>, StoreError> {
-    while runs.len() > kept.max(1) {
+    while runs.len() > RUNS_KEPT {
         let groups: Vec<Vec<RunFile>> = {
             let mut rest = runs.into_iter().peekable();
             let mut groups = Vec::new();
@@ -376,20 +407,24 @@ fn join(
     rb: usize,
     buf_bytes: usize,
 ) -> Result<RunFile, StoreError> {
-    let (mut out, file) = create_run(path)?;
+    let (mut out, file) = create_run(path, rb)?;
     let mut w = std::io::BufWriter::with_capacity(buf_bytes / 2, file);
     let per_run = (buf_bytes / 2 / group.len() / rb).max(1);
     let mut readers = group
         .iter()
         .map(|run| RunReader::new(run, rb, per_run))
         .collect::<Result<Vec<_>, _>>()?;
-    let buckets = group.first().map_or(0, |r| r.starts.len() - 1);
+    let buckets = group.first().map_or(0, |r| r.buckets);
+    let runs_starts = group
+        .iter()
+        .map(|r| r.starts(0..buckets))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut starts = Vec::with_capacity(buckets + 1);
     let mut at = 0u64;
     for b in 0..buckets {
         starts.push(at);
-        for (run, reader) in group.iter().zip(&mut readers) {
-            let mut left = run.starts[b + 1] - run.starts[b];
+        for (run_starts, reader) in runs_starts.iter().zip(&mut readers) {
+            let mut left = run_starts[b + 1] - run_starts[b];
             at += left;
             while left > 0 {
                 let records = reader.take(left)?;
@@ -400,10 +435,11 @@ fn join(
         }
     }
     starts.push(at);
-    w.flush()
+    w.write_all(&starts_bytes(starts.into_iter()))
+        .and_then(|()| w.flush())
         .map_err(|e| StoreError::io(&out.path, "writing a temporary run file", e))?;
     out.count = at;
-    out.starts = starts;
+    out.buckets = buckets;
     Ok(out)
 }
 
@@ -459,5 +495,55 @@ impl<'a> RunReader<'a> {
         let from = self.pos;
         self.pos += n * self.rb;
         Ok(&self.buf[from..self.pos])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run of 2-byte records `[run, i]` in `buckets` buckets, record i in bucket `i % buckets`.
+    fn run(dir: &Path, r: u8, n: u8, buckets: usize) -> RunFile {
+        let records: Vec<u8> = (0..n).flat_map(|i| [r, i]).collect();
+        let mut pairs: Vec<Pair> = (0..n as u32).map(|i| Pair(u64::from(i), i)).collect();
+        let starts = crate::sort::bucket_by(&mut pairs, &mut Vec::new(), buckets, |k| {
+            k as usize % buckets
+        });
+        write_run(temp_name(dir, "t", "run"), &records, &pairs, &starts, 2, 64).unwrap()
+    }
+
+    #[test]
+    fn joined_runs_hold_each_bucket_of_every_run_in_run_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let runs = vec![
+            run(dir.path(), 0, 5, 3),
+            run(dir.path(), 1, 0, 3),
+            run(dir.path(), 2, 4, 3),
+        ];
+        assert_eq!(runs[0].starts(0..3).unwrap(), [0, 2, 4, 5]);
+        let joined = join(&runs, temp_name(dir.path(), "t", "run"), 2, 1 << 16).unwrap();
+        assert_eq!((joined.count, joined.buckets), (9, 3));
+        assert_eq!(joined.starts(0..3).unwrap(), [0, 4, 7, 9]);
+        assert_eq!(joined.span(1..3).unwrap(), (4, 9));
+        let mut records = vec![0u8; 18];
+        read_records(&joined, 0, 2, &mut records).unwrap();
+        let want = [
+            [0, 0],
+            [0, 3],
+            [2, 0],
+            [2, 3],
+            [0, 1],
+            [0, 4],
+            [2, 1],
+            [0, 2],
+            [2, 2],
+        ];
+        assert_eq!(records, want.concat());
+        drop((runs, joined));
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "run files left"
+        );
     }
 }

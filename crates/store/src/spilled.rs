@@ -65,21 +65,23 @@ impl<'a> Load<'a> {
     }
 
     /// Buckets `range` of every run.
-    fn buckets(runs: &'a [RunFile], range: std::ops::Range<usize>) -> Load<'a> {
-        let (mut pieces, mut bases) = (Vec::new(), Vec::new());
+    fn buckets(runs: &'a [RunFile], range: std::ops::Range<usize>) -> Result<Load<'a>, StoreError> {
+        let (mut pieces, mut bases, mut starts) = (Vec::new(), Vec::new(), Vec::new());
         let mut at = 0;
         for run in runs {
-            let (from, to) = run.span(range.clone());
+            let s = run.starts(range.clone())?;
+            let (from, to) = (s[0], s[s.len() - 1]);
             if to > from {
                 pieces.push(Piece { run, from, to });
                 bases.push(at);
+                starts.push(s);
                 at += (to - from) as usize;
             }
         }
         let (mut segments, mut bucket_ends) = (Vec::new(), Vec::new());
-        for b in range {
-            for (p, &base) in pieces.iter().zip(&bases) {
-                let (from, to) = p.run.span(b..b + 1);
+        for j in 0..range.len() {
+            for ((p, &base), s) in pieces.iter().zip(&bases).zip(&starts) {
+                let (from, to) = (s[j], s[j + 1]);
                 if to > from {
                     segments.push((base + (from - p.from) as usize, (to - from) as usize));
                 }
@@ -88,11 +90,11 @@ impl<'a> Load<'a> {
                 bucket_ends.push(segments.len());
             }
         }
-        Load {
+        Ok(Load {
             pieces,
             segments,
             bucket_ends,
-        }
+        })
     }
 }
 
@@ -154,10 +156,13 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
 
     /// Emits every record of `runs`, bucketed by `b`, in sorted order.
     pub fn walk(&mut self, runs: &[RunFile], b: Bucketing) -> Result<(), StoreError> {
-        let totals: Vec<u64> = (0..b.count)
-            .into_par_iter()
-            .map(|i| runs.iter().map(|r| r.starts[i + 1] - r.starts[i]).sum())
-            .collect();
+        let mut totals = vec![0u64; b.count];
+        for run in runs {
+            let starts = run.starts(0..b.count)?;
+            for (t, w) in totals.iter_mut().zip(starts.windows(2)) {
+                *t += w[1] - w[0];
+            }
+        }
         let cap = self.set.capacity as u64;
         let mut i = 0;
         while i < b.count {
@@ -173,7 +178,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
                     }
                     // One key: its records are in sorted order already, taken as they come.
                     None => {
-                        for chunk in chunks(runs, i, self.set.capacity) {
+                        for chunk in chunks(runs, i, self.set.capacity)? {
                             self.push(&Load::one_bucket(chunk))?;
                         }
                     }
@@ -188,7 +193,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
                 sum += totals[j];
                 j += 1;
             }
-            self.push(&Load::buckets(runs, i..j))?;
+            self.push(&Load::buckets(runs, i..j)?)?;
             i = j;
         }
         Ok(())
@@ -383,7 +388,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         self.flush()?;
         let mut g = std::mem::take(&mut self.spare);
         let mut out = Vec::new();
-        for chunk in chunks(runs, bucket, self.set.capacity) {
+        for chunk in chunks(runs, bucket, self.set.capacity)? {
             let load = Load::one_bucket(chunk);
             self.load(&mut g, &[], &load.pieces)?;
             self.key(&mut g, 0, &load);
@@ -406,11 +411,15 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
 }
 
 /// Bucket `bucket` of every run, in run order, cut into chunks of at most `capacity` records.
-fn chunks(runs: &[RunFile], bucket: usize, capacity: usize) -> Vec<Vec<Piece<'_>>> {
+fn chunks(
+    runs: &[RunFile],
+    bucket: usize,
+    capacity: usize,
+) -> Result<Vec<Vec<Piece<'_>>>, StoreError> {
     let capacity = capacity.max(1) as u64;
     let (mut all, mut chunk, mut size) = (Vec::new(), Vec::new(), 0u64);
     for run in runs {
-        let (mut from, to) = run.span(bucket..bucket + 1);
+        let (mut from, to) = run.span(bucket..bucket + 1)?;
         while from < to {
             let take = (to - from).min(capacity - size);
             chunk.push(Piece {
@@ -428,5 +437,5 @@ fn chunks(runs: &[RunFile], bucket: usize, capacity: usize) -> Vec<Vec<Piece<'_>
     if size > 0 {
         all.push(chunk);
     }
-    all
+    Ok(all)
 }
