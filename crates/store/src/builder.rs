@@ -964,7 +964,7 @@ fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
 fn group_capacity(budget: u64, record: usize, mapped: bool, rl: &RecordLayout) -> usize {
     let per_point = (3 * record + 3 * std::mem::size_of::<Pair>()) as u64;
     let pages = if mapped {
-        (2 * pio::HUGE * rl.fields.len()) as u64
+        2 * (2 << 20) * rl.fields.len() as u64
     } else {
         0
     };

@@ -120,7 +120,7 @@ unsafe impl Sync for WriteMap {}
 
 /// 2 MiB: the page size the mapping asks for.
 #[cfg(target_os = "linux")]
-pub(crate) const HUGE: usize = 2 << 20;
+const HUGE: usize = 2 << 20;
 
 impl WriteMap {
     /// Maps the `len` bytes of `file`, which [`allocate`] sized with its disk space reserved
