@@ -19,7 +19,7 @@ pub struct Args {
     /// Default: a quarter of the machine's RAM, at most 4GiB, at least 64MiB.
     #[arg(long, value_parser = crate::parse_bytes_arg)]
     pub ram_budget: Option<u64>,
-    /// Folder for temporary sorted runs (default: beside the output).
+    /// Folder for the temporary runs of an out-of-core build (default: beside the output).
     #[arg(long)]
     pub tmp: Option<PathBuf>,
     /// Target number of pointlets M: pointlet size k = 2^round(log2(n/M)).

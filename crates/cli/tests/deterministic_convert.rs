@@ -9,7 +9,7 @@ use std::process::Command;
 
 /// Points in each case, together.
 const POINTS: u64 = 300_000;
-/// Small enough to force many sorted runs: the points take ~40 B each in memory.
+/// Small enough to force many spilled runs: the points take ~40 B each in memory.
 const SPILLING_BUDGET: u64 = 2 << 20;
 const _: () = assert!(POINTS * 40 > 4 * SPILLING_BUDGET);
 const THREADS: [&str; 3] = ["1", "2", "4"];

@@ -74,7 +74,7 @@ fn signals_remove_temporary_files_and_runs() {
         interrupt(&args, d, ".tmp", signal, code, &[]);
     }
     ok(&["generate", "--points", POINTS, "-o", las_s]);
-    // A small budget makes convert spill sorted runs beside the output: wait for one.
+    // A small budget makes convert spill runs beside the output: wait for one.
     for (signal, code) in [("INT", 130), ("TERM", 143)] {
         let args = ["convert", las_s, "-o", store_s, "--ram-budget", "64MiB"];
         interrupt(&args, d, ".run", signal, code, &["g.las"]);

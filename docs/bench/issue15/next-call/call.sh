@@ -17,7 +17,8 @@
 #   objcopy --strip-debug /tmp/old/target/release/pointlet /tmp/p && gzip -1 -c /tmp/p > .dev/pointlet-v1.gz
 #   (the same from HEAD into .dev/pointlet-x1.gz; from HEAD with ooc-writers.diff applied into
 #   .dev/pointlet-y1.gz, and with reuse-run.diff applied into .dev/pointlet-w1.gz), with the
-#   Debian `time` .deb (`apt-get download time`) in .dev/
+#   Debian `time` .deb (`apt-get download time`) in .dev/, which a fresh checkout must ignore
+#   first: `mkdir -p .git/info && echo /.dev/ >> .git/info/exclude`
 # Run: run(command="bash docs/bench/issue15/next-call/call.sh", carry=[".dev/pointlet-v1.gz",
 #   ".dev/pointlet-x1.gz", ".dev/pointlet-y1.gz", ".dev/pointlet-w1.gz", ".dev/time_1.9-0.2_amd64.deb"]).
 set -uo pipefail
