@@ -750,7 +750,6 @@ impl StoreBuilder {
         let ((), table_crc, checksums_crc, writer_busy) = if spilled {
             let runs = runs::join_runs(
                 std::mem::take(&mut self.runs),
-                rb,
                 (self.ram_budget / 2) as usize,
                 &self.run_dir,
                 &self.stem,
@@ -886,7 +885,7 @@ impl StoreBuilder {
         let total: u64 = self.runs.iter().map(|r| r.count).sum();
         let mut done = 0;
         for old in std::mem::take(&mut self.runs) {
-            let mut run = runs::read_run(&old, rb)?;
+            let mut run = runs::read_run(&old)?;
             done += old.count;
             drop(old);
             rekey(&mut run, rb, self.quantization, self.grid);

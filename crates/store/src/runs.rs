@@ -3,9 +3,10 @@
 //! A full run is not sorted before it is spilled: its records are written grouped by the top
 //! bits of their Hilbert keys ([`Bucketing`]), in input order inside each bucket, followed by
 //! where each bucket starts (read back when needed: a run keeps nothing per bucket in memory,
-//! which with tiny budgets and many runs would outgrow the budget). The final phase loads the same consecutive buckets of
-//! every run as one group that fits the budget and sorts it in memory; ties go to the lower
-//! run and then to input order, which is the in-memory sort's total order. A bucket too large
+//! which with tiny budgets and many runs would outgrow the budget). The final phase loads the
+//! same consecutive buckets of every run as one group that fits the budget and sorts it in
+//! memory; ties go to the lower run and then to input order, which is the in-memory sort's
+//! total order. A bucket too large
 //! for one group is spilled again by finer buckets; one of a single key needs no sorting.
 
 use crate::sort::Pair;
@@ -194,7 +195,8 @@ pub(crate) fn write_run(
 
 /// Reads a run file back into memory: its records in file order, with pairs `(0, i)` whose
 /// keys the caller computes anew.
-pub(crate) fn read_run(run: &RunFile, rb: usize) -> Result<Run, StoreError> {
+pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
+    let rb = run.rb;
     let n = usize::try_from(run.count)
         .map_err(|_| StoreError::build(&run.path, "a run larger than memory"))?;
     let mut file = File::open(&run.path)
@@ -209,21 +211,16 @@ pub(crate) fn read_run(run: &RunFile, rb: usize) -> Result<Run, StoreError> {
     })
 }
 
-/// Reads records `from..from + out.len() / rb` of a run into `out`, then gives their pages
+/// Reads records `from..from + out.len() / run.rb` of a run into `out`, then gives their pages
 /// back: every record is read once, and freeing them here, on the loading threads, spares the
 /// seconds that removing gigabytes of runs at the end would take.
-pub(crate) fn read_records(
-    run: &RunFile,
-    from: u64,
-    rb: usize,
-    out: &mut [u8],
-) -> Result<(), StoreError> {
+pub(crate) fn read_records(run: &RunFile, from: u64, out: &mut [u8]) -> Result<(), StoreError> {
     let file = OpenOptions::new()
         .read(true)
         .write(true)
         .open(&run.path)
         .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
-    let at = from * rb as u64;
+    let at = from * run.rb as u64;
     crate::pio::read_exact_at(&file, out, at)
         .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
     crate::pio::release(&file, at, out.len() as u64);
@@ -368,10 +365,10 @@ pub(crate) const RUNS_KEPT: usize = 512;
 /// Runs joined into one at a time.
 const JOINED: usize = 32;
 
-/// Joins consecutive runs, [`JOINED`] at a time on every core, until at most `kept` remain.
+/// Joins consecutive runs, [`JOINED`] at a time on every core, until at most [`RUNS_KEPT`]
+/// remain.
 pub(crate) fn join_runs(
     mut runs: Vec<RunFile>,
-    rb: usize,
     buf_bytes: usize,
     dir: &Path,
     stem: &str,
@@ -392,7 +389,7 @@ pub(crate) fn join_runs(
                 1 => group.into_iter().next().ok_or_else(|| {
                     StoreError::build(dir, "internal error: an empty group of runs")
                 }),
-                _ => join(&group, temp_name(dir, stem, "run"), rb, buf),
+                _ => join(&group, temp_name(dir, stem, "run"), buf),
             })
             .collect::<Result<Vec<_>, _>>()?;
     }
@@ -401,18 +398,14 @@ pub(crate) fn join_runs(
 
 /// One run of `group` (consecutive runs of the same bucketing): bucket by bucket, each
 /// bucket's records of every run in run order, which is how groups read them.
-fn join(
-    group: &[RunFile],
-    path: PathBuf,
-    rb: usize,
-    buf_bytes: usize,
-) -> Result<RunFile, StoreError> {
+fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, StoreError> {
+    let rb = group.first().map_or(1, |r| r.rb);
     let (mut out, file) = create_run(path, rb)?;
     let mut w = std::io::BufWriter::with_capacity(buf_bytes / 2, file);
     let per_run = (buf_bytes / 2 / group.len() / rb).max(1);
     let mut readers = group
         .iter()
-        .map(|run| RunReader::new(run, rb, per_run))
+        .map(|run| RunReader::new(run, per_run))
         .collect::<Result<Vec<_>, _>>()?;
     let buckets = group.first().map_or(0, |r| r.buckets);
     let runs_starts = group
@@ -447,7 +440,6 @@ fn join(
 struct RunReader<'a> {
     run: &'a RunFile,
     file: File,
-    rb: usize,
     buf: Vec<u8>,
     pos: usize,
     end: usize,
@@ -456,7 +448,7 @@ struct RunReader<'a> {
 }
 
 impl<'a> RunReader<'a> {
-    fn new(run: &'a RunFile, rb: usize, records: usize) -> Result<Self, StoreError> {
+    fn new(run: &'a RunFile, records: usize) -> Result<Self, StoreError> {
         let file = OpenOptions::new()
             .read(true)
             .write(true)
@@ -466,8 +458,7 @@ impl<'a> RunReader<'a> {
         Ok(RunReader {
             run,
             file,
-            rb,
-            buf: vec![0; records * rb],
+            buf: vec![0; records * run.rb],
             pos: 0,
             end: 0,
             next: 0,
@@ -477,23 +468,24 @@ impl<'a> RunReader<'a> {
     /// The next records, at most `max` (at least one while the run has any).
     fn take(&mut self, max: u64) -> Result<&[u8], StoreError> {
         if self.pos == self.end {
-            let n = ((self.buf.len() / self.rb) as u64).min(self.run.count - self.next);
+            let rb = self.run.rb;
+            let n = ((self.buf.len() / rb) as u64).min(self.run.count - self.next);
             if n == 0 {
                 return Err(StoreError::build(
                     &self.run.path,
                     "internal error: a run ended before its buckets did",
                 ));
             }
-            let bytes = n as usize * self.rb;
-            let at = self.next * self.rb as u64;
+            let bytes = n as usize * rb;
+            let at = self.next * rb as u64;
             crate::pio::read_exact_at(&self.file, &mut self.buf[..bytes], at)
                 .map_err(|e| StoreError::io(&self.run.path, "reading a temporary run file", e))?;
             crate::pio::release(&self.file, at, bytes as u64);
             (self.pos, self.end, self.next) = (0, bytes, self.next + n);
         }
-        let n = ((self.end - self.pos) / self.rb).min(max as usize);
+        let n = ((self.end - self.pos) / self.run.rb).min(max as usize);
         let from = self.pos;
-        self.pos += n * self.rb;
+        self.pos += n * self.run.rb;
         Ok(&self.buf[from..self.pos])
     }
 }
@@ -521,12 +513,12 @@ mod tests {
             run(dir.path(), 2, 4, 3),
         ];
         assert_eq!(runs[0].starts(0..3).unwrap(), [0, 2, 4, 5]);
-        let joined = join(&runs, temp_name(dir.path(), "t", "run"), 2, 1 << 16).unwrap();
+        let joined = join(&runs, temp_name(dir.path(), "t", "run"), 1 << 16).unwrap();
         assert_eq!((joined.count, joined.buckets), (9, 3));
         assert_eq!(joined.starts(0..3).unwrap(), [0, 4, 7, 9]);
         assert_eq!(joined.span(1..3).unwrap(), (4, 9));
         let mut records = vec![0u8; 18];
-        read_records(&joined, 0, 2, &mut records).unwrap();
+        read_records(&joined, 0, &mut records).unwrap();
         let want = [
             [0, 0],
             [0, 3],

@@ -83,29 +83,24 @@ pub(crate) fn partition(pairs: &mut Vec<Pair>, scratch: &mut Vec<Pair>) -> Bucke
     if n < SMALL {
         return Buckets { starts: vec![0, n] };
     }
-    scratch.clear();
-    scratch.reserve_exact(n);
-    crate::pio::huge_pages(scratch);
-    let dst = SharedOut(scratch.spare_capacity_mut().as_mut_ptr().cast::<Pair>());
-    // SAFETY: the spare capacity holds n pairs.
-    match unsafe { scatter(pairs, &dst) } {
-        Some(starts) => {
-            // SAFETY: the scatter wrote every one of the n slots exactly once.
-            unsafe { scratch.set_len(n) };
-            std::mem::swap(pairs, scratch);
-            Buckets { starts }
-        }
+    match radix_pass(pairs) {
+        Some(RadixPass { count, shift, base }) => Buckets {
+            starts: bucket_by(pairs, scratch, count, |k| ((k >> shift) - base) as usize),
+        },
         None => Buckets { starts: vec![0, n] },
     }
 }
 
-/// One parallel radix pass: writes `pairs` to `dst` by the top varying bits of their keys
-/// (stable inside a bucket), every one of `pairs.len()` slots once, and returns the bucket
-/// boundaries; `None` when every key is the same (nothing written).
-///
-/// # Safety
-/// `dst` must be valid for writes of `pairs.len()` pairs that nothing else touches meanwhile.
-unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
+/// The buckets of one radix pass: `(key >> shift) - base`, below `count`.
+struct RadixPass {
+    count: usize,
+    shift: u32,
+    base: u64,
+}
+
+/// The radix pass over the top varying bits of `pairs`' keys; `None` when every key is the
+/// same.
+fn radix_pass(pairs: &[Pair]) -> Option<RadixPass> {
     let (min, max) = pairs
         .par_iter()
         .fold(|| (u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)))
@@ -117,9 +112,11 @@ unsafe fn scatter(pairs: &[Pair], dst: &SharedOut) -> Option<Vec<usize>> {
     let bits = radix_bits(pairs, min, varying);
     let shift = varying - bits;
     let base = min >> shift;
-    let nb = ((max >> shift) - base + 1) as usize;
-    // SAFETY: passed on from the caller.
-    Some(unsafe { scatter_by(pairs, dst, nb, |k| ((k >> shift) - base) as usize) })
+    Some(RadixPass {
+        count: ((max >> shift) - base + 1) as usize,
+        shift,
+        base,
+    })
 }
 
 /// Scatters `pairs` into `nb` buckets by `bucket` (below `nb` for every key), in bucket order
@@ -262,11 +259,13 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         return sort_leaf(s);
     }
     if n > LARGE {
-        let dst = SharedOut(tmp.as_mut_ptr());
-        // SAFETY: `tmp` holds n pairs, borrowed mutably here only.
-        let Some(starts) = (unsafe { scatter(s, &dst) }) else {
+        let Some(RadixPass { count, shift, base }) = radix_pass(s) else {
             return s.par_sort_unstable();
         };
+        let dst = SharedOut(tmp.as_mut_ptr());
+        // SAFETY: `tmp` holds n pairs, borrowed mutably here only; the pass's buckets are
+        // below `count` for every key of `s`.
+        let starts = unsafe { scatter_by(s, &dst, count, |k| ((k >> shift) - base) as usize) };
         s.par_chunks_mut(SMALL)
             .zip(tmp.par_chunks(SMALL))
             .for_each(|(a, b)| a.copy_from_slice(b));

@@ -326,7 +326,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         reads
             .into_par_iter()
-            .try_for_each(|(run, from, out)| runs::read_records(run, from, rb, out))
+            .try_for_each(|(run, from, out)| runs::read_records(run, from, out))
     }
 
     /// The pairs (key, place) of `g`'s records, the `carried` first, then bucket by bucket as
