@@ -530,7 +530,7 @@ impl StoreBuilder {
             let target = add.max(expected.min(cap));
             self.run.records = vec![0; target * rb];
             self.run.records.truncate(add * rb);
-            self.run.pairs = vec![Pair::default(); target];
+            self.run.pairs = Pair::zeroed(target);
             self.run.pairs.truncate(add);
             pio::huge_pages(&self.run.records);
             pio::huge_pages(&self.run.pairs);

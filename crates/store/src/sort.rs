@@ -15,6 +15,27 @@ use rayon::prelude::*;
 #[repr(C, packed(4))]
 pub(crate) struct Pair(pub u64, pub u32);
 
+impl Pair {
+    /// `n` zero pairs from the allocator's zeroed pages, untouched until written: `vec![Pair::
+    /// default(); n]` writes every pair on the calling thread first (a 200 M-point run's 2.4 GB
+    /// took 1.6 s on one core before the parallel reading began).
+    pub(crate) fn zeroed(n: usize) -> Vec<Pair> {
+        match std::alloc::Layout::array::<Pair>(n) {
+            Ok(layout) if layout.size() > 0 => {
+                // SAFETY: the layout is not zero-sized.
+                let ptr = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<Pair>();
+                if ptr.is_null() {
+                    std::alloc::handle_alloc_error(layout);
+                }
+                // SAFETY: allocated by the global allocator with the layout of n pairs (a
+                // Vec's own for capacity n), and all-zero bytes are a valid Pair.
+                unsafe { Vec::from_raw_parts(ptr, n, n) }
+            }
+            _ => vec![Pair::default(); n],
+        }
+    }
+}
+
 /// Most bits of the radix pass: 2^16 buckets of a few thousand pairs each sort inside the L2
 /// cache.
 const RADIX_BITS: u32 = 16;

@@ -304,10 +304,9 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         if g.records.len() < g.len * rb {
             // At once as long as a full group, not grown group by group.
             let points = g.len.max(self.set.capacity.min(self.em.points() as usize));
-            g.records = Vec::new();
-            g.records.reserve_exact(points * rb);
+            // Zeroed pages from the allocator: resizing would write them all on this thread.
+            g.records = vec![0; points * rb];
             pio::huge_pages(&g.records);
-            g.records.resize(points * rb, 0);
         }
         g.records[..carry.len()].copy_from_slice(carry);
         let mut rest = &mut g.records[carry.len()..g.len * rb];
@@ -334,7 +333,11 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
     fn key(&self, g: &mut Group, carried: usize, load: &Load<'_>) -> sort::Buckets {
         const TASK: usize = 1 << 14;
         let (rb, q, grid) = (self.rb, self.set.quantization, self.set.grid);
-        g.pairs.clear();
+        // Every pair is written below: only growth is filled, not the whole group again.
+        if g.pairs.capacity() < g.len {
+            g.pairs = Pair::zeroed(g.len.max(self.set.capacity.min(self.em.points() as usize)));
+            pio::huge_pages(&g.pairs);
+        }
         g.pairs.resize(g.len, Pair::default());
         let mut starts = vec![0];
         if carried > 0 {
