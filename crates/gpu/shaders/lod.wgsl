@@ -5,7 +5,7 @@
 // sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
 // visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
 // origin from double-single (hi + lo f32) coordinates, the spacing of the points it draws (for
-// adaptive splats), and one draw entry per resident page of the range to draw — the whole resident
+// adaptive splats, bounded by its neighbours'), and one draw entry per resident page of the range to draw — the whole resident
 // prefix up to the request, or when accumulating (camera still) only the points not drawn yet.
 // Entries go to the list of the chunk holding the page; `finalize` turns the counts into indirect
 // dispatch sizes and the draw arguments of billboard quads. Replaces the paper's per-frame buffer
@@ -17,7 +17,8 @@ struct Pointlet {
     origin_lo: vec3<f32>,
     gamma: f32,
     extent: vec3<f32>,
-    _pad: u32,
+    // At most 1: keeps a pointlet's splats near its neighbours' size (paged.rs spacing_factors).
+    spacing_factor: f32,
 }
 
 struct LodParams {
@@ -202,7 +203,8 @@ fn build_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let end = min(req, st.y);
     // Adaptive splats: the spacing of the points drawn this frame over the pointlet's box.
-    infos[i] = DrawInfo(o, u32(fine), step, box_spacing(p.extent, max(end, st.x) - st.x));
+    let spacing = box_spacing(p.extent, max(end, st.x) - st.x) * p.spacing_factor;
+    infos[i] = DrawInfo(o, u32(fine), step, spacing);
     var drawn = end;
     if params.accumulate != 0u {
         drawn = max(st.z, end);
