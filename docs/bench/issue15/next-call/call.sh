@@ -7,17 +7,25 @@
 # measures more spilling threads: s3 = the committed code + experiment.diff (XP_SPILLERS sets
 # their number; the budget is shared by the filling run and those spilling, so more spillers
 # mean smaller runs). 200 M LAS, in memory twice, out of core at 1 GiB with 2, 4, 3 and 6
-# spillers, alternated, two rounds; stores compared byte for byte with the first.
+# spillers, alternated, two rounds; stores compared byte for byte with the first. Then the
+# committed out-of-core path (2 spillers) and LAZ in memory under perf record, flat by symbol
+# and by thread, split at the end of the reading stage: where out of core's group phase spends
+# the ~15 core-s it takes beyond in memory's sorting and writing, and what LAZ's 1.7 s after
+# decoding is made of.
 # The binary, built here (x86-64), stripped and carried as xz (the tracked tree is ~28 MB of the
 # 64 MiB that travels):
 #   git apply docs/bench/issue15/next-call/experiment.diff && cargo build --release -p pointlet
-#   strip --strip-all -o /tmp/p target/release/pointlet && xz -9 -c /tmp/p > .dev/pointlet-s3.xz
+#   objcopy --strip-debug target/release/pointlet /tmp/p && xz -9 -c /tmp/p > .dev/pointlet-s3.xz
+#   (the symbol table stays, for perf)
 #   git apply -R docs/bench/issue15/next-call/experiment.diff
-# with the Debian `time` .deb (`apt-get download time`) in .dev/, which a fresh checkout must
+# with the Debian `time` .deb (`apt-get download time`) and perf with its libraries in .dev/
+# (`mkdir -p /tmp/perfpk/lib && cp /usr/bin/perf /tmp/perfpk/ && ldd /usr/bin/perf | awk '/=>/
+# {print $3} /ld-linux/ {print $1}' | xargs -I{} cp -L {} /tmp/perfpk/lib/ && tar czf
+# .dev/perfpk.tgz -C /tmp perfpk`), which a fresh checkout must
 # ignore first: `mkdir -p .git/info && echo /.dev/ >> .git/info/exclude`.
 # Run: run(command="bash docs/bench/issue15/next-call/call.sh", carry=[".dev/pointlet-s3.xz",
-#   ".dev/time_1.9-0.2_amd64.deb"]) -- about 3 minutes. Session 38's trimmed version of it
-# (docs/bench/issue15/h100-session38/3-spillers/) could not be run: the device time was spent.
+#   ".dev/time_1.9-0.2_amd64.deb", ".dev/perfpk.tgz"]) -- about 5 minutes. Session 38 could not start it (device
+# time spent).
 set -uo pipefail
 exec > >(tee "$OUT/log.txt") 2>&1
 X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }
@@ -39,6 +47,26 @@ for rs in 1:2 1:4 1:3 1:6 2:2 2:4 2:3 2:6; do
   else C ooc-sp$s-$r env XP_SPILLERS=$s /tmp/ps3 $M --ram-budget 1GiB --tmp $W; fi
 done
 C mem-2 /tmp/ps3 $M --ram-budget 24GiB
+echo "at $SECONDS s"
+tar xzf .dev/perfpk.tgz -C /tmp
+PERF="/tmp/perfpk/lib/ld-linux-x86-64.so.2 --library-path /tmp/perfpk/lib /tmp/perfpk/perf"
+# perf record of a command; reports for the whole run, before and after the reading stage ends.
+P() { local name=$1; shift; $PERF record -F 999 -o $W/$name.data "$@" > /tmp/cb/$name.txt 2>&1; rm -f $W/s.pointlet; sync
+  grep -E '^wrote' /tmp/cb/$name.txt
+  local rd=$(grep -oE 'reading [0-9.]+ s' /tmp/cb/$name.txt | grep -oE '[0-9.]+')
+  local t0=$($PERF script -i $W/$name.data -F time 2>/dev/null | head -1 | tr -d ' :')
+  $PERF report -i $W/$name.data --no-children --sort sym 2>/dev/null | grep -v '^#' | grep '%' | head -45 > /tmp/cb/$name-all.txt
+  if [ -n "$rd" ] && [ -n "$t0" ]; then local t1=$(awk "BEGIN{printf \"%.6f\", $t0 + $rd}")
+    for part in read:",$t1" write:"$t1,"; do
+      $PERF report -i $W/$name.data --no-children --sort sym --time "${part#*:}" 2>/dev/null | grep -v '^#' | grep '%' | head -45 > /tmp/cb/$name-${part%%:*}.txt
+      $PERF report -i $W/$name.data --no-children --sort comm --time "${part#*:}" 2>/dev/null | grep -v '^#' | grep '%' | head -12 > /tmp/cb/$name-${part%%:*}-comm.txt
+    done
+  fi; rm -f $W/$name.data; }
+P perf-ooc /tmp/ps3 $M --ram-budget 1GiB --tmp $W
+rm -f $L $W/ref.pointlet; /tmp/ps3 generate --points 200M -o $W/g.laz 2>&1 | tail -1
+sync; cat $W/g.laz > /dev/null
+P perf-laz /tmp/ps3 convert $W/g.laz -o $W/s.pointlet --ram-budget 24GiB
+for f in perf-ooc-read perf-ooc-write perf-ooc-write-comm perf-laz-write perf-laz-write-comm; do echo "== $f"; head -25 /tmp/cb/$f.txt; done
 echo "at $SECONDS s"
 cd /tmp/cb && tar czf $OUT/runs.tgz *.txt
 rm -rf $W
