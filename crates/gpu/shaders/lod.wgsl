@@ -5,8 +5,9 @@
 // sums of l. `total`: Σl. `build`: requested_i = min(count_i, max(1, round(l_i / Σl · B))) for
 // visible pointlets (a prefix of the pointlet's shuffled points), the pointlet's camera-relative
 // origin from double-single (hi + lo f32) coordinates, the spacing of the points it draws (for
-// adaptive splats, bounded by its neighbours'), and one draw entry per resident page of the range to draw — the whole resident
-// prefix up to the request, or when accumulating (camera still) only the points not drawn yet.
+// adaptive splats, bounded by its neighbours'), and one draw entry per resident page of the range
+// to draw — the whole resident prefix up to the request, or when accumulating (camera still) only
+// the points not drawn yet.
 // Entries go to the list of the chunk holding the page; `finalize` turns the counts into indirect
 // dispatch sizes and the draw arguments of billboard quads. Replaces the paper's per-frame buffer
 // compaction: only pages change, and drawing reads them where they are.
