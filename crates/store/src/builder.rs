@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// The progress callback.
-type Progress = Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>;
+pub(crate) type Progress = Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>;
 
 /// How to build a store.
 #[derive(Clone)]
@@ -766,7 +766,7 @@ impl StoreBuilder {
             let settings = GroupSettings {
                 quantization: self.quantization,
                 grid: self.grid,
-                capacity: group_capacity(self.ram_budget, rb, map.is_some(), &self.rl),
+                capacity: group_capacity(self.ram_budget, map.is_some(), &self.rl),
                 step,
                 io_chunk: self.io_chunk,
                 run_dir: &self.run_dir,
@@ -957,7 +957,7 @@ fn bad_point(output: &Path, seq: u64, message: String) -> StoreError {
     StoreError::build(output, format!("input point {seq} {message}"))
 }
 
-fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
+pub(crate) fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
     if let Some(p) = progress {
         p(BuildProgress { phase, done, total });
     }
@@ -967,8 +967,8 @@ fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u64) {
 /// emitted while the next is read and sorted), their pairs, the sort's second array, and the
 /// mapped pages of the group being written. A mapping also keeps up to two partly written
 /// 2 MiB pages of each stream (a byte stream's page spans 2 M points, several groups).
-fn group_capacity(budget: u64, record: usize, mapped: bool, rl: &RecordLayout) -> usize {
-    let per_point = (3 * record + 3 * std::mem::size_of::<Pair>()) as u64;
+fn group_capacity(budget: u64, mapped: bool, rl: &RecordLayout) -> usize {
+    let per_point = (3 * rl.len + 3 * std::mem::size_of::<Pair>()) as u64;
     let pages = if mapped {
         2 * (2 << 20) * rl.fields.len() as u64
     } else {
@@ -982,7 +982,7 @@ fn group_capacity(budget: u64, record: usize, mapped: bool, rl: &RecordLayout) -
 /// of its smallest stream (at a 1 GiB budget it does, and the mapping beat the writer threads
 /// by 8 % on the GPU machine).
 fn groups_span_pages(budget: u64, rl: &RecordLayout) -> bool {
-    let capacity = group_capacity(budget, rl.len, true, rl) as u64;
+    let capacity = group_capacity(budget, true, rl) as u64;
     let smallest = rl.fields.iter().map(|f| f.2 as u64).min().unwrap_or(1);
     capacity * smallest >= 2 * (2 << 20)
 }

@@ -95,8 +95,7 @@ impl RunFile {
                 format!("internal error: buckets {range:?} of {}", self.buckets),
             ));
         }
-        let file = File::open(&self.path)
-            .map_err(|e| StoreError::io(&self.path, "opening a temporary run file", e))?;
+        let file = self.open()?;
         let mut raw = vec![0u8; (range.len() + 1) * 8];
         let at = self.count * self.rb as u64 + range.start as u64 * 8;
         crate::pio::read_exact_at(&file, &mut raw, at)
@@ -105,6 +104,15 @@ impl RunFile {
             .chunks_exact(8)
             .map(|b| u64::from_le_bytes(crate::format::array(b)))
             .collect())
+    }
+
+    /// The run's file for positioned reads, writable so that pages read can be given back.
+    fn open(&self) -> Result<File, StoreError> {
+        OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&self.path)
+            .map_err(|e| StoreError::io(&self.path, "opening a temporary run file", e))
     }
 
     /// Records of buckets `range`: the first and one past the last.
@@ -199,8 +207,7 @@ pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
     let rb = run.rb;
     let n = usize::try_from(run.count)
         .map_err(|_| StoreError::build(&run.path, "a run larger than memory"))?;
-    let mut file = File::open(&run.path)
-        .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+    let mut file = run.open()?;
     let mut records = vec![0u8; n * rb];
     file.read_exact(&mut records)
         .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
@@ -215,11 +222,7 @@ pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
 /// back: every record is read once, and freeing them here, on the loading threads, spares the
 /// seconds that removing gigabytes of runs at the end would take.
 pub(crate) fn read_records(run: &RunFile, from: u64, out: &mut [u8]) -> Result<(), StoreError> {
-    let file = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open(&run.path)
-        .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+    let file = run.open()?;
     let at = from * run.rb as u64;
     crate::pio::read_exact_at(&file, out, at)
         .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
@@ -449,11 +452,7 @@ struct RunReader<'a> {
 
 impl<'a> RunReader<'a> {
     fn new(run: &'a RunFile, records: usize) -> Result<Self, StoreError> {
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(&run.path)
-            .map_err(|e| StoreError::io(&run.path, "opening a temporary run file", e))?;
+        let file = run.open()?;
         let records = (records as u64).min(run.count) as usize;
         Ok(RunReader {
             run,

@@ -34,6 +34,17 @@ impl Pair {
             _ => vec![Pair::default(); n],
         }
     }
+
+    /// Makes `v` `len` pairs long for pairs the caller overwrites, keeping none of its
+    /// contents: past its capacity it is replaced by [`Pair::zeroed`] of at least `reserve`
+    /// pairs (on 2 MiB pages), so that growth is neither copied nor written on this thread.
+    pub(crate) fn resize_for_overwrite(v: &mut Vec<Pair>, len: usize, reserve: usize) {
+        if v.capacity() < len {
+            *v = Pair::zeroed(len.max(reserve));
+            crate::pio::huge_pages(v);
+        }
+        v.resize(len, Pair::default());
+    }
 }
 
 /// Most bits of the radix pass: 2^16 buckets of a few thousand pairs each sort inside the L2

@@ -7,15 +7,15 @@
 //! group ends on a bucket boundary, not on a pointlet's: the records of the pointlet it leaves
 //! unfinished (all with smaller keys than the next group's) go before the next group's.
 
+use crate::builder::{report, Progress};
 use crate::emit::{Emitter, Source};
 use crate::runs::{self, Bucketing, RunFile};
 use crate::sort::{self, Pair};
-use crate::{pio, BuildPhase, BuildProgress, StoreError};
+use crate::{pio, BuildPhase, StoreError};
 use pointlet_core::codes::KeyGrid;
 use pointlet_core::{rows, Quantization};
 use rayon::prelude::*;
 use std::path::Path;
-use std::sync::Arc;
 
 /// Bytes read by one task: a large piece of a run is read by several threads.
 const READ_BYTES: usize = 4 << 20;
@@ -122,7 +122,7 @@ pub(crate) struct GroupSettings<'a> {
     pub io_chunk: usize,
     pub run_dir: &'a Path,
     pub stem: &'a str,
-    pub progress: Option<Arc<dyn Fn(BuildProgress) + Send + Sync>>,
+    pub progress: Progress,
 }
 
 /// Reads, sorts and emits the spilled runs' groups in key order.
@@ -231,7 +231,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
                 this.load(&mut group, &carry, &load.pieces)?;
                 let buckets = this.key(&mut group, carry.len() / this.rb, load);
                 // One second array for every bucket: a bucket may hold most of the group.
-                scratch.resize(group.len, Pair::default());
+                Pair::resize_for_overwrite(&mut scratch, group.len, this.full_group());
                 sort::sort_buckets_in(&mut group.pairs, &mut scratch, &buckets);
                 group.first = first;
                 let end = first + group.len as u64;
@@ -284,16 +284,15 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         while p < p_end {
             let p1 = (p + self.set.step).min(p_end);
             self.em.block(p, p1, &source)?;
-            if let Some(report) = &self.set.progress {
-                report(BuildProgress {
-                    phase: BuildPhase::Writing,
-                    done: (p1 * k).min(n),
-                    total: n,
-                });
-            }
+            report(&self.set.progress, BuildPhase::Writing, (p1 * k).min(n), n);
             p = p1;
         }
         Ok(())
+    }
+
+    /// Records of a full group: buffers are made this long at once, not grown group by group.
+    fn full_group(&self) -> usize {
+        self.set.capacity.min(self.em.points() as usize)
     }
 
     /// Fills `g` with the carried records, then those of `pieces`, read on every core.
@@ -302,10 +301,8 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         let carried = carry.len() / rb;
         g.len = carried + pieces.iter().map(Piece::len).sum::<usize>();
         if g.records.len() < g.len * rb {
-            // At once as long as a full group, not grown group by group.
-            let points = g.len.max(self.set.capacity.min(self.em.points() as usize));
             // Zeroed pages from the allocator: resizing would write them all on this thread.
-            g.records = vec![0; points * rb];
+            g.records = vec![0; g.len.max(self.full_group()) * rb];
             pio::huge_pages(&g.records);
         }
         g.records[..carry.len()].copy_from_slice(carry);
@@ -333,12 +330,8 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
     fn key(&self, g: &mut Group, carried: usize, load: &Load<'_>) -> sort::Buckets {
         const TASK: usize = 1 << 14;
         let (rb, q, grid) = (self.rb, self.set.quantization, self.set.grid);
-        // Every pair is written below: only growth is filled, not the whole group again.
-        if g.pairs.capacity() < g.len {
-            g.pairs = Pair::zeroed(g.len.max(self.set.capacity.min(self.em.points() as usize)));
-            pio::huge_pages(&g.pairs);
-        }
-        g.pairs.resize(g.len, Pair::default());
+        // Every pair is written below.
+        Pair::resize_for_overwrite(&mut g.pairs, g.len, self.full_group());
         let mut starts = vec![0];
         if carried > 0 {
             starts.push(carried);
