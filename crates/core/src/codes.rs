@@ -249,17 +249,18 @@ pub fn hilbert_from_morton(morton: u64) -> u64 {
     h
 }
 
-/// [`hilbert_from_morton`] of four codes at once: the table walk is a chain of dependent loads,
-/// and four independent chains keep the core busy while each waits on its loads.
-#[inline]
-pub fn hilbert_from_morton4(morton: [u64; 4]) -> [u64; 4] {
+/// [`hilbert_from_morton`] of `N` codes at once: the table walk is a chain of dependent loads,
+/// and independent chains keep the core busy while each waits on its loads (eight: 2.4 against
+/// 5.7 ns a key with four, dev machine).
+#[inline(always)]
+pub fn hilbert_from_morton_n<const N: usize>(morton: [u64; N]) -> [u64; N] {
     let t = tables();
-    let mut state = [0usize; 4];
-    let mut h = [0u64; 4];
+    let mut state = [0usize; N];
+    let mut h = [0u64; N];
     let mut shift = 63;
     while shift > 0 {
         shift -= 9;
-        for i in 0..4 {
+        for i in 0..N {
             let e = t.three_level[state[i]][((morton[i] >> shift) & 511) as usize];
             h[i] = h[i] << 9 | u64::from(e >> 5);
             state[i] = usize::from(e & 31);
@@ -267,6 +268,10 @@ pub fn hilbert_from_morton4(morton: [u64; 4]) -> [u64; 4] {
     }
     h
 }
+
+/// Bits of an axis in a Morton code, for the bit deposit.
+#[cfg(target_arch = "x86_64")]
+const MORTON_AXIS: u64 = 0x1249_2492_4924_9249;
 
 /// Hilbert index of integer cell coordinates (each < 2^21).
 #[inline]
@@ -316,17 +321,63 @@ impl KeyGrid {
         hilbert_from_morton(self.morton(p))
     }
 
-    /// [`hilbert`](Self::hilbert) of four points at once (faster per point).
-    #[inline]
-    pub fn hilbert4(&self, p: [[f64; 3]; 4]) -> [u64; 4] {
-        // Spelled out: `array::map` here was not inlined (a call per point, measured).
-        let [a, b, c, d] = p;
-        hilbert_from_morton4([
-            self.morton(a),
-            self.morton(b),
-            self.morton(c),
-            self.morton(d),
-        ])
+    /// [`hilbert`](Self::hilbert) of the stored positions `raw` (quantized by `q`) into `keys`
+    /// (as long): eight at a time, with Morton codes by the CPU's bit deposit where it has one
+    /// (BMI2: 4.3 against 9.0 ns a key in all, dev machine). The same keys either way.
+    pub fn hilbert_raw(&self, q: &crate::Quantization, raw: &[[i32; 3]], keys: &mut [u64]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("bmi2") {
+            // SAFETY: the CPU has BMI2.
+            return unsafe { self.hilbert_raw_bmi2(q, raw, keys) };
+        }
+        self.hilbert_raw_with::<false>(q, raw, keys);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "bmi2")]
+    unsafe fn hilbert_raw_bmi2(&self, q: &crate::Quantization, raw: &[[i32; 3]], keys: &mut [u64]) {
+        self.hilbert_raw_with::<true>(q, raw, keys);
+    }
+
+    #[inline(always)]
+    fn hilbert_raw_with<const BMI2: bool>(
+        &self,
+        q: &crate::Quantization,
+        raw: &[[i32; 3]],
+        keys: &mut [u64],
+    ) {
+        let morton = |r: [i32; 3]| {
+            let c = self.cell(q.dequantize(r));
+            #[cfg(target_arch = "x86_64")]
+            if BMI2 {
+                use std::arch::x86_64::_pdep_u64;
+                // SAFETY: only reached from `hilbert_raw_bmi2`, on a CPU with BMI2.
+                return unsafe {
+                    _pdep_u64(u64::from(c[0]), MORTON_AXIS << 2)
+                        | _pdep_u64(u64::from(c[1]), MORTON_AXIS << 1)
+                        | _pdep_u64(u64::from(c[2]), MORTON_AXIS)
+                };
+            }
+            morton3(c[0], c[1], c[2])
+        };
+        let mut eights = raw.chunks_exact(8);
+        let mut outs = keys.chunks_exact_mut(8);
+        for (r, k) in eights.by_ref().zip(outs.by_ref()) {
+            let m = [
+                morton(r[0]),
+                morton(r[1]),
+                morton(r[2]),
+                morton(r[3]),
+                morton(r[4]),
+                morton(r[5]),
+                morton(r[6]),
+                morton(r[7]),
+            ];
+            k.copy_from_slice(&hilbert_from_morton_n(m));
+        }
+        for (r, k) in eights.remainder().iter().zip(outs.into_remainder()) {
+            *k = hilbert_from_morton(morton(*r));
+        }
     }
 }
 
@@ -388,17 +439,64 @@ mod tests {
             let table = per_point(t);
             assert_eq!(keys, by_shifts);
             let t = std::time::Instant::now();
-            for k in keys.chunks_exact_mut(4) {
-                let h = hilbert_from_morton4([k[0], k[1], k[2], k[3]]);
+            for k in keys.chunks_exact_mut(8) {
+                let h = hilbert_from_morton_n([k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]]);
                 k.copy_from_slice(&h);
             }
             let hilbert = per_point(t);
             std::hint::black_box(&keys);
+            // The whole key of stored positions, one by one and eight at a time.
+            let q = crate::Quantization {
+                scale: [0.001; 3],
+                offset: [0.0; 3],
+            };
+            let grid = KeyGrid::new(&crate::Aabb {
+                min: [0.0; 3],
+                max: [2000.0, 2000.0, 2000.0],
+            });
+            let raw: Vec<[i32; 3]> = cells.iter().map(|c| c.map(|v| v as i32 / 2)).collect();
+            let t = std::time::Instant::now();
+            for (k, r) in keys.iter_mut().zip(&raw) {
+                *k = grid.hilbert(q.dequantize(*r));
+            }
+            let single = per_point(t);
+            let one_by_one = std::hint::black_box(keys.clone());
+            let t = std::time::Instant::now();
+            grid.hilbert_raw(&q, &raw, &mut keys);
+            let eights = per_point(t);
+            assert_eq!(keys, one_by_one);
             println!(
                 "round {round}: Morton by shifts {shifts:.2} ns, by table {table:.2} ns; \
-                 Hilbert from Morton, four at a time {hilbert:.2} ns"
+                 Hilbert from Morton, eight at a time {hilbert:.2} ns; keys of stored \
+                 positions one by one {single:.2} ns, eight at a time {eights:.2} ns"
             );
         }
+    }
+
+    #[test]
+    fn keys_of_stored_positions_are_those_of_single_points() {
+        let mut rng = SplitMix64::new(9);
+        let q = crate::Quantization {
+            scale: [0.01, 0.01, 0.001],
+            offset: [1000.0, -50.0, 3.0],
+        };
+        let grid = KeyGrid::new(&crate::Aabb {
+            min: [900.0, -80.0, 0.0],
+            max: [1900.0, 400.0, 90.0],
+        });
+        // Inside the grid, outside it (clamped) and at the extremes; a length that leaves a
+        // remainder after the eights.
+        let mut raw: Vec<[i32; 3]> = (0..1003)
+            .map(|_| [0, 1, 2].map(|_| rng.below(1 << 22) as i32 - (1 << 20)))
+            .collect();
+        raw.extend([[i32::MIN; 3], [i32::MAX; 3], [0; 3]]);
+        let want: Vec<u64> = raw.iter().map(|r| grid.hilbert(q.dequantize(*r))).collect();
+        let mut keys = vec![0; raw.len()];
+        grid.hilbert_raw(&q, &raw, &mut keys);
+        assert_eq!(keys, want);
+        keys.fill(0);
+        grid.hilbert_raw_with::<false>(&q, &raw, &mut keys);
+        assert_eq!(keys, want);
     }
 
     #[test]

@@ -180,6 +180,8 @@ pub struct StoreBuilder {
     overlap: bool,
     io_chunk: usize,
     spiller: Option<Spiller>,
+    /// How run files are written (found out with the first).
+    run_maps: std::sync::Arc<runs::RunMaps>,
     runs: Vec<RunFile>,
     pushed: u64,
     started: std::time::Instant,
@@ -328,6 +330,7 @@ impl StoreBuilder {
             overlap,
             io_chunk,
             spiller: None,
+            run_maps: Default::default(),
             runs: Vec::new(),
             pushed: 0,
             started: std::time::Instant::now(),
@@ -599,7 +602,9 @@ impl StoreBuilder {
             return Ok(());
         }
         let (rb, chunk) = (self.rl.len, self.io_chunk);
-        let spiller = self.spiller.get_or_insert_with(|| Spiller::new(rb, chunk));
+        let spiller = self
+            .spiller
+            .get_or_insert_with(|| Spiller::new(rb, chunk, self.run_maps.clone()));
         // At most SPILLERS runs are in flight: when all are, the oldest must be on disk now.
         let reuse = if spiller.in_flight() < runs::SPILLERS {
             Run::default()
@@ -770,6 +775,7 @@ impl StoreBuilder {
                 step,
                 io_chunk: self.io_chunk,
                 run_dir: &self.run_dir,
+                run_maps: &self.run_maps,
                 stem: &self.stem,
                 progress: progress.clone(),
             };
@@ -905,6 +911,7 @@ impl StoreBuilder {
                 &starts,
                 rb,
                 self.io_chunk,
+                &self.run_maps,
             )?);
             self.report(BuildPhase::Sorting, done, total);
         }
@@ -1069,31 +1076,28 @@ fn key_block(
             hi[a] = hi[a].max(r[a]);
         }
     }
-    // Keys four at a time (their table walks overlap), the rest one by one.
-    let done = pairs.len() / 4 * 4;
-    let mut fours = pairs.chunks_exact_mut(4);
-    for (j, four) in fours.by_ref().enumerate() {
-        let r = &raw[4 * j..4 * j + 4];
-        let d = |i: usize| q.dequantize(r[i]);
-        let keys = grid.hilbert4([d(0), d(1), d(2), d(3)]);
-        for (i, (pair, key)) in four.iter_mut().zip(keys).enumerate() {
-            *pair = Pair(key, (index + 4 * j + i) as u32);
-        }
-    }
-    for (i, pair) in fours.into_remainder().iter_mut().enumerate() {
-        *pair = Pair(
-            grid.hilbert(q.dequantize(raw[done + i])),
-            (index + done + i) as u32,
-        );
+    let mut keys = [0u64; BLOCK];
+    let keys = &mut keys[..raw.len()];
+    grid.hilbert_raw(&q, raw, keys);
+    for (i, (pair, &key)) in pairs.iter_mut().zip(keys.iter()).enumerate() {
+        *pair = Pair(key, (index + i) as u32);
     }
 }
 
 /// Recomputes the keys of a run from its records' quantized positions (their first 12 bytes).
 fn rekey(run: &mut Run, rb: usize, q: Quantization, grid: KeyGrid) {
     let records = &run.records;
-    run.pairs.par_iter_mut().for_each(|pair| {
-        let at = pair.1 as usize * rb;
-        pair.0 = grid.hilbert(q.dequantize(rows::row_position(&records[at..at + rb])));
+    run.pairs.par_chunks_mut(BLOCK).for_each(|pairs| {
+        let (mut raw, mut keys) = ([[0i32; 3]; BLOCK], [0u64; BLOCK]);
+        let (raw, keys) = (&mut raw[..pairs.len()], &mut keys[..pairs.len()]);
+        for (r, pair) in raw.iter_mut().zip(pairs.iter()) {
+            let at = pair.1 as usize * rb;
+            *r = rows::row_position(&records[at..at + rb]);
+        }
+        grid.hilbert_raw(&q, raw, keys);
+        for (pair, &key) in pairs.iter_mut().zip(keys.iter()) {
+            pair.0 = key;
+        }
     });
 }
 

@@ -121,6 +121,7 @@ pub(crate) struct GroupSettings<'a> {
     /// Bytes gathered at a time when a bucket too large for a group is spilled again.
     pub io_chunk: usize,
     pub run_dir: &'a Path,
+    pub run_maps: &'a runs::RunMaps,
     pub stem: &'a str,
     pub progress: Progress,
 }
@@ -363,10 +364,20 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         let records = &g.records;
         tasks.into_par_iter().for_each(|(pairs, first)| {
-            let recs = records[first * rb..(first + pairs.len()) * rb].chunks_exact(rb);
-            for (j, (pair, rec)) in pairs.iter_mut().zip(recs).enumerate() {
-                let key = grid.hilbert(q.dequantize(rows::row_position(rec)));
-                *pair = Pair(key, (first + j) as u32);
+            // Keyed a block at a time, so the positions and keys stay on the stack.
+            const BLOCK: usize = 2048;
+            let (mut raw, mut keys) = ([[0i32; 3]; BLOCK], [0u64; BLOCK]);
+            for (b, pairs) in pairs.chunks_mut(BLOCK).enumerate() {
+                let at = first + b * BLOCK;
+                let recs = records[at * rb..(at + pairs.len()) * rb].chunks_exact(rb);
+                let (raw, keys) = (&mut raw[..pairs.len()], &mut keys[..pairs.len()]);
+                for (r, rec) in raw.iter_mut().zip(recs) {
+                    *r = rows::row_position(rec);
+                }
+                grid.hilbert_raw(&q, raw, keys);
+                for (j, (pair, &key)) in pairs.iter_mut().zip(keys.iter()).enumerate() {
+                    *pair = Pair(key, (at + j) as u32);
+                }
             }
         });
         starts.dedup();
@@ -399,6 +410,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
                 &starts,
                 self.rb,
                 self.set.io_chunk,
+                self.set.run_maps,
             )?);
         }
         self.spare = g;
