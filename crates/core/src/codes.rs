@@ -156,11 +156,15 @@ pub fn hilbert3_reference(p: [u32; 3], bits: u32) -> u64 {
 }
 
 /// Per state, a table for three levels: index = 9 Morton bits, value = 9 Hilbert bits << 5 |
-/// next state (the curve has 12 states, so 5 bits hold one; the tests against the reference
+/// next state (the curve has 24 states, so 5 bits hold one; the tests against the reference
 /// would fail otherwise). 1 KiB per state: all of them stay in the L1 cache.
 struct HilbertTables {
-    three_level: Vec<[u16; 512]>,
+    /// Rows past the curve's states stay zero: indexing by `state & 31` needs no bounds check.
+    three_level: Box<[[u16; 512]; STATE_ROWS]>,
 }
+
+/// Rows of the state table: the curve's 24 states, rounded up to a power of two.
+const STATE_ROWS: usize = 32;
 
 fn tables() -> &'static HilbertTables {
     static TABLES: OnceLock<HilbertTables> = OnceLock::new();
@@ -216,20 +220,16 @@ fn build_tables() -> HilbertTables {
         one_level.push(row);
         i += 1;
     }
-    let three_level = one_level
-        .iter()
-        .map(|row| {
-            let mut t = [0u16; 512];
-            for (m, out) in t.iter_mut().enumerate() {
-                let (d1, s1) = row[m >> 6];
-                let (d2, s2) = one_level[s1 as usize][(m >> 3) & 7];
-                let (d3, s3) = one_level[s2 as usize][m & 7];
-                let digits = u16::from(d1) << 6 | u16::from(d2) << 3 | u16::from(d3);
-                *out = digits << 5 | u16::from(s3);
-            }
-            t
-        })
-        .collect();
+    let mut three_level = Box::new([[0u16; 512]; STATE_ROWS]);
+    for (row, t) in one_level.iter().zip(three_level.iter_mut()) {
+        for (m, out) in t.iter_mut().enumerate() {
+            let (d1, s1) = row[m >> 6];
+            let (d2, s2) = one_level[s1 as usize][(m >> 3) & 7];
+            let (d3, s3) = one_level[s2 as usize][m & 7];
+            let digits = u16::from(d1) << 6 | u16::from(d2) << 3 | u16::from(d3);
+            *out = digits << 5 | u16::from(s3);
+        }
+    }
     HilbertTables { three_level }
 }
 
@@ -242,7 +242,7 @@ pub fn hilbert_from_morton(morton: u64) -> u64 {
     let mut shift = 63;
     while shift > 0 {
         shift -= 9;
-        let e = t.three_level[state][((morton >> shift) & 511) as usize];
+        let e = t.three_level[state & (STATE_ROWS - 1)][((morton >> shift) & 511) as usize];
         h = h << 9 | u64::from(e >> 5);
         state = usize::from(e & 31);
     }
@@ -261,7 +261,8 @@ pub fn hilbert_from_morton_n<const N: usize>(morton: [u64; N]) -> [u64; N] {
     while shift > 0 {
         shift -= 9;
         for i in 0..N {
-            let e = t.three_level[state[i]][((morton[i] >> shift) & 511) as usize];
+            let e =
+                t.three_level[state[i] & (STATE_ROWS - 1)][((morton[i] >> shift) & 511) as usize];
             h[i] = h[i] << 9 | u64::from(e >> 5);
             state[i] = usize::from(e & 31);
         }
@@ -306,7 +307,12 @@ impl KeyGrid {
     #[inline]
     pub fn cell(&self, p: [f64; 3]) -> [u32; 3] {
         let max = (KEY_CELLS - 1) as f64;
-        let f = |i: usize| ((p[i] - self.min[i]) * self.inv_cell).clamp(0.0, max) as u32;
+        let f = |i: usize| {
+            // `max` first: it takes NaN to 0, as the saturating `as` would.
+            let c = ((p[i] - self.min[i]) * self.inv_cell).max(0.0).min(max);
+            // SAFETY: c is a finite value in 0..=max, which u32 holds.
+            unsafe { c.to_int_unchecked::<u32>() }
+        };
         [f(0), f(1), f(2)]
     }
 

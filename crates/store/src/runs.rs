@@ -279,15 +279,20 @@ pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
     })
 }
 
-/// Reads records `from..from + out.len() / run.rb` of a run into `out`, then gives their pages
-/// back: every record is read once, and freeing them here, on the loading threads, spares the
-/// seconds that removing gigabytes of runs at the end would take.
+/// Reads records `from..from + out.len() / run.rb` of a run into `out`.
 pub(crate) fn read_records(run: &RunFile, from: u64, out: &mut [u8]) -> Result<(), StoreError> {
     let file = run.open()?;
-    let at = from * run.rb as u64;
-    crate::pio::read_exact_at(&file, out, at)
-        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
-    crate::pio::release(&file, at, out.len() as u64);
+    crate::pio::read_exact_at(&file, out, from * run.rb as u64)
+        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))
+}
+
+/// Gives back the pages of records `from..to` of a run, which were read and are not read
+/// again: freeing them as the groups go, on the loading threads, spares the seconds that
+/// removing gigabytes of runs at the end would take.
+pub(crate) fn release_records(run: &RunFile, from: u64, to: u64) -> Result<(), StoreError> {
+    let file = run.open()?;
+    let rb = run.rb as u64;
+    crate::pio::release(&file, from * rb, (to - from) * rb);
     Ok(())
 }
 

@@ -323,7 +323,12 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         reads
             .into_par_iter()
-            .try_for_each(|(run, from, out)| runs::read_records(run, from, out))
+            .try_for_each(|(run, from, out)| runs::read_records(run, from, out))?;
+        // Once all are read, a piece at a time: giving pages back takes the file's lock, which
+        // reads of the same run would otherwise wait for.
+        pieces
+            .par_iter()
+            .try_for_each(|p| runs::release_records(p.run, p.from, p.to))
     }
 
     /// The pairs (key, place) of `g`'s records, the `carried` first, then bucket by bucket as
