@@ -1,72 +1,46 @@
 #!/usr/bin/env bash
-# Prepared in session 38 for the next lent GPU machine (issue 15), not yet run. Out of core at
-# 1 GiB, session 38's calls found the reading stage at ~9.5 of 16 cores for 2.8 s
-# (docs/bench/issue15/h100-session38/2-zeroed/cpu-ooc-z2.txt): the two spilling threads write
-# 7 GB of runs into the page cache (4.2 s in all), each run with one thread, and the filling
-# waits for them; out of core took 2.0-2.3x the in-memory time (target <= 1.5x). This call
-# measures more spilling threads: s3 = the committed code + experiment.diff (XP_SPILLERS sets
-# their number; the budget is shared by the filling run and those spilling, so more spillers
-# mean smaller runs). 200 M LAS, in memory twice, out of core at 1 GiB with 2, 4, 3 and 6
-# spillers, alternated, two rounds; stores compared byte for byte with the first. Then the
-# committed out-of-core path (2 spillers) and LAZ in memory under perf record, flat by symbol
-# and by thread, split at the end of the reading stage: where out of core's group phase spends
-# the ~15 core-s it takes beyond in memory's sorting and writing, and what LAZ's 1.7 s after
-# decoding is made of.
-# The binary, built here (x86-64), stripped and carried as xz (the tracked tree is ~28 MB of the
-# 64 MiB that travels):
-#   git apply docs/bench/issue15/next-call/experiment.diff && cargo build --release -p pointlet
-#   objcopy --strip-debug target/release/pointlet /tmp/p && xz -9 -c /tmp/p > .dev/pointlet-s3.xz
-#   (the symbol table stays, for perf)
-#   git apply -R docs/bench/issue15/next-call/experiment.diff
-# with the Debian `time` .deb (`apt-get download time`) and perf with its libraries in .dev/
-# (`mkdir -p /tmp/perfpk/lib && cp /usr/bin/perf /tmp/perfpk/ && ldd /usr/bin/perf | awk '/=>/
-# {print $3} /ld-linux/ {print $1}' | xargs -I{} cp -L {} /tmp/perfpk/lib/ && tar czf
-# .dev/perfpk.tgz -C /tmp perfpk`), which a fresh checkout must
-# ignore first: `mkdir -p .git/info && echo /.dev/ >> .git/info/exclude`.
-# Run: run(command="bash docs/bench/issue15/next-call/call.sh", carry=[".dev/pointlet-s3.xz",
-#   ".dev/time_1.9-0.2_amd64.deb", ".dev/perfpk.tgz"]) -- about 5 minutes. Session 38 could not start it (device
-# time spent).
+# Session 39, call 3 (issue 15): s5 = 11aa57f (runs gathered into a mapping of their file, keys
+# eight at a time with BMI2) against s6 = s5 + the key cell without the saturating conversion
+# and a fixed state table, and out of core the read run pages given back once a group's reads
+# are done (a piece at a time, not after every 4 MiB read of the same run file). 200 M LAS in
+# memory once each, out of core at 1 GiB alternated, two rounds; 200 M LAZ `bench-read` and s6's
+# convert alternated, two rounds (cut short: the session's device time was nearly spent). Every
+# store compared byte for byte with the first of its input.
+# Binaries built here (x86-64), stripped and carried as xz: `cargo build --release -p pointlet
+# && objcopy --strip-debug target/release/pointlet /tmp/p && xz -9 -c /tmp/p >
+# .dev/pointlet-sN.xz`; the Debian `time` .deb as in session 38, in .dev/, which a fresh checkout
+# must ignore first: `mkdir -p .git/info && echo /.dev/ >> .git/info/exclude`.
+# Run: run(command="bash docs/bench/issue15/next-call/call.sh", carry=[".dev/pointlet-s5.xz",
+#   ".dev/pointlet-s6.xz", ".dev/time_1.9-0.2_amd64.deb"]) -- about 2.5 minutes.
 set -uo pipefail
 exec > >(tee "$OUT/log.txt") 2>&1
 X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }
-X .dev/pointlet-s3.xz > /tmp/ps3 && chmod +x /tmp/ps3
+for v in 5 6; do X .dev/pointlet-s$v.xz > /tmp/ps$v && chmod +x /tmp/ps$v; done
 [ -x /usr/bin/time ] || dpkg -x .dev/time_*.deb /
 W=/tmp/w; mkdir -p $W /tmp/cb; SECONDS=0
+nproc; grep -m1 'model name' /proc/cpuinfo; uname -r
 L=$W/g.las
-/tmp/ps3 generate --points 200M -o $L 2>&1 | tail -1
+/tmp/ps5 generate --points 200M -o $L 2>&1 | tail -1
 sync; sleep 2; cat $L > /dev/null
 C() { local name=$1; shift; /usr/bin/time -f "%e s wall, %U user, %S sys, %M kB" "$@" > /tmp/cb/$name.txt 2>&1; echo "$name: $(grep -E '^wrote|^decoded' /tmp/cb/$name.txt | sed 's/.*in \([0-9.]* s\)/\1/' | cut -c1-300) | $(tail -1 /tmp/cb/$name.txt)"
   if [ -f $W/s.pointlet ]; then if [ -f $W/ref.pointlet ]; then cmp $W/s.pointlet $W/ref.pointlet || echo "   DIFFERENT"; rm -f $W/s.pointlet; else mv $W/s.pointlet $W/ref.pointlet; fi; fi; sync; }
 S() { local name=$1; shift; (while :; do echo "$(date +%s.%N) $(head -1 /proc/stat)"; sleep 0.1; done) > $OUT/cpu-$name.txt & local sp=$!
   C $name "$@"; kill $sp; }
 M="convert $L -o $W/s.pointlet"
-C mem /tmp/ps3 $M --ram-budget 24GiB
-for rs in 1:2 1:4 1:3 1:6 2:2 2:4 2:3 2:6; do
-  r=${rs%:*} s=${rs#*:}
-  if [ $r = 1 ]; then S ooc-sp$s env XP_SPILLERS=$s /tmp/ps3 $M --ram-budget 1GiB --tmp $W
-  else C ooc-sp$s-$r env XP_SPILLERS=$s /tmp/ps3 $M --ram-budget 1GiB --tmp $W; fi
+C las-read /tmp/ps6 bench-read $L
+C mem-s5 /tmp/ps5 $M --ram-budget 24GiB
+S mem-s6 /tmp/ps6 $M --ram-budget 24GiB
+for r in 1 2; do
+  C ooc-s5-$r /tmp/ps5 $M --ram-budget 1GiB --tmp $W
+  S ooc-s6-$r /tmp/ps6 $M --ram-budget 1GiB --tmp $W
 done
-C mem-2 /tmp/ps3 $M --ram-budget 24GiB
 echo "at $SECONDS s"
-tar xzf .dev/perfpk.tgz -C /tmp
-PERF="/tmp/perfpk/lib/ld-linux-x86-64.so.2 --library-path /tmp/perfpk/lib /tmp/perfpk/perf"
-# perf record of a command; reports for the whole run, before and after the reading stage ends.
-P() { local name=$1; shift; $PERF record -F 999 -o $W/$name.data "$@" > /tmp/cb/$name.txt 2>&1; rm -f $W/s.pointlet; sync
-  grep -E '^wrote' /tmp/cb/$name.txt
-  local rd=$(grep -oE 'reading [0-9.]+ s' /tmp/cb/$name.txt | grep -oE '[0-9.]+')
-  local t0=$($PERF script -i $W/$name.data -F time 2>/dev/null | head -1 | tr -d ' :')
-  $PERF report -i $W/$name.data --no-children --sort sym 2>/dev/null | grep -v '^#' | grep '%' | head -45 > /tmp/cb/$name-all.txt
-  if [ -n "$rd" ] && [ -n "$t0" ]; then local t1=$(awk "BEGIN{printf \"%.6f\", $t0 + $rd}")
-    for part in read:",$t1" write:"$t1,"; do
-      $PERF report -i $W/$name.data --no-children --sort sym --time "${part#*:}" 2>/dev/null | grep -v '^#' | grep '%' | head -45 > /tmp/cb/$name-${part%%:*}.txt
-      $PERF report -i $W/$name.data --no-children --sort comm --time "${part#*:}" 2>/dev/null | grep -v '^#' | grep '%' | head -12 > /tmp/cb/$name-${part%%:*}-comm.txt
-    done
-  fi; rm -f $W/$name.data; }
-P perf-ooc /tmp/ps3 $M --ram-budget 1GiB --tmp $W
-rm -f $L $W/ref.pointlet; /tmp/ps3 generate --points 200M -o $W/g.laz 2>&1 | tail -1
+rm -f $L $W/ref.pointlet; /tmp/ps5 generate --points 200M -o $W/g.laz 2>&1 | tail -1
 sync; cat $W/g.laz > /dev/null
-P perf-laz /tmp/ps3 convert $W/g.laz -o $W/s.pointlet --ram-budget 24GiB
-for f in perf-ooc-read perf-ooc-write perf-ooc-write-comm perf-laz-write perf-laz-write-comm; do echo "== $f"; head -25 /tmp/cb/$f.txt; done
+for r in 1 2; do
+  C laz-read-$r /tmp/ps6 bench-read $W/g.laz
+  S laz-s6-$r /tmp/ps6 convert $W/g.laz -o $W/s.pointlet --ram-budget 24GiB
+done
 echo "at $SECONDS s"
 cd /tmp/cb && tar czf $OUT/runs.tgz *.txt
 rm -rf $W
