@@ -501,7 +501,8 @@ mod tests {
         assert_eq!(buckets.covering(pairs.len()), buckets.len());
     }
 
-    /// Sort time of a spilled run's worth of surface points (5 M, a terrain seen from above):
+    /// Sort time of a spilled run's worth of surface points (5 M, a terrain seen from above), the
+    /// radix pass and the buckets apart, checked against a comparison sort:
     /// `cargo test --release -p pointlet-store --lib sort_time -- --ignored --nocapture`.
     #[test]
     #[ignore = "a timing, not a check"]
@@ -520,11 +521,22 @@ mod tests {
             })
             .collect();
         let mut scratch = Vec::new();
+        let mut want = pairs.clone();
+        want.sort_unstable();
         for round in 0..5 {
             let mut p = pairs.clone();
             let t = std::time::Instant::now();
-            sort_pairs_with(&mut p, &mut scratch);
-            eprintln!("round {round}: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+            let buckets = partition(&mut p, &mut scratch);
+            let parted = t.elapsed();
+            scratch.resize(p.len(), Pair::default());
+            sort_buckets_in(&mut p, &mut scratch, &buckets);
+            let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+            eprintln!(
+                "round {round}: partition {:.1} ms, buckets {:.1} ms",
+                ms(parted),
+                ms(t.elapsed() - parted)
+            );
+            assert!(p == want);
         }
     }
 }

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Session 39, call 3 (issue 15): s5 = 11aa57f (runs gathered into a mapping of their file, keys
-# eight at a time with BMI2) against s6 = s5 + the key cell without the saturating conversion
-# and a fixed state table, and out of core the read run pages given back once a group's reads
+# Prepared in session 39 (issue 15), not run: the device time was spent. s5 = 11aa57f (runs
+# gathered into a mapping of their file, keys eight at a time with BMI2) against s6 = d299af6
+# (s5 + the key cell without the saturating conversion
+# and a fixed state table; out of core the read run pages given back once a group's reads
 # are done (a piece at a time, not after every 4 MiB read of the same run file). 200 M LAS in
 # memory once each, out of core at 1 GiB alternated, two rounds; 200 M LAZ `bench-read` and s6's
 # convert alternated, two rounds (cut short: the session's device time was nearly spent). Every
