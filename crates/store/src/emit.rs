@@ -555,6 +555,70 @@ mod tests {
         .map(|e| e.to_string())
     }
 
+    /// Time to shuffle, split, bound and checksum pointlets of 2048 LAS format 3 points whose
+    /// records lie scattered over 200 MB, as sorting leaves them:
+    /// `cargo test --release -p pointlet-store --lib emit_time -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a timing, not a check"]
+    fn emit_time_of_scattered_records() {
+        let layout = PointLayout {
+            gps_time: true,
+            rgb: true,
+            ..Default::default()
+        };
+        let rl = RecordLayout::new(&layout);
+        let (points, k) = (1u64 << 22, 2048u64);
+        let plan = crate::format::plan(0, points, points / k, &layout).expect("plan");
+        let file = tempfile::tempfile().expect("temporary file");
+        let out = EmitPlan {
+            file: &file,
+            path: Path::new("t.pointlet"),
+            plan: &plan,
+            rl: &rl,
+            k,
+            points,
+            seed: 0,
+            quantization: Quantization {
+                scale: [0.001; 3],
+                offset: [0.0; 3],
+            },
+            map: None,
+        };
+        let mut rng = pointlet_core::shuffle::SplitMix64::new(1);
+        // On 2 MiB pages, as a build's run is.
+        let mut records: Vec<u8> = Vec::with_capacity(points as usize * rl.len);
+        pio::huge_pages(&records);
+        records.extend((0..points as usize * rl.len).map(|_| rng.next_u64() as u8));
+        // Neighbouring sorted points come from anywhere in the run.
+        let order: Vec<Pair> = (0..points)
+            .map(|i| Pair(i, ((i * 2_654_435_761) % points) as u32))
+            .collect();
+        let source = Source {
+            records: &records,
+            order: &order,
+            first: 0,
+        };
+        let mut streams: Vec<Vec<u8>> = rl
+            .fields
+            .iter()
+            .map(|(_, _, b)| vec![0u8; points as usize * b])
+            .collect();
+        // Only computed, not written: the emitter's check that every pointlet went out fails.
+        let _ = Emitter::run(&out, |em| {
+            for round in 0..3 {
+                let t = std::time::Instant::now();
+                let mut outs: Vec<&mut [u8]> = streams.iter_mut().map(|v| &mut v[..]).collect();
+                let results = em.compute(0, points / k, &source, &mut outs);
+                let ns = t.elapsed().as_secs_f64() * 1e9 / points as f64;
+                eprintln!(
+                    "round {round}: {ns:.1} ns a point ({} pointlets)",
+                    results.len()
+                );
+            }
+            Ok(())
+        });
+    }
+
     #[test]
     fn every_pointlet_must_be_emitted_exactly_once() {
         assert_eq!(emit_blocks(&[(2, 5), (0, 2)]), None);
