@@ -451,7 +451,7 @@ impl StoreBuilder {
                         .decode_part_rows(part, &q, &rl.row, recs, scratch)
                         .map_err(StoreError::Input)?
                     {
-                        key_rows(recs, q, grid, rl, at, pairs)
+                        key_rows(recs, q, grid, rl.len, at, pairs)
                     } else {
                         source
                             .decode_part(part, batch, scratch)
@@ -1033,25 +1033,25 @@ fn key_and_pack(
     Ok(bounds)
 }
 
-/// Keys the rows `recs` (whose positions are the stored integers) into `pairs` (run indices
-/// from `index`); their raw bounds.
-fn key_rows(
+/// Keys the `rb`-byte rows `recs` (whose positions are the stored integers) into `pairs` (run
+/// indices from `index`), a block at a time on the stack; their raw bounds.
+pub(crate) fn key_rows(
     recs: &[u8],
     q: Quantization,
     grid: KeyGrid,
-    rl: &RecordLayout,
+    rb: usize,
     index: usize,
     pairs: &mut [Pair],
 ) -> RawBounds {
     let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
     let mut raw = [[0i32; 3]; BLOCK];
     for (b, (recs, pairs)) in recs
-        .chunks(BLOCK * rl.len)
+        .chunks(BLOCK * rb)
         .zip(pairs.chunks_mut(BLOCK))
         .enumerate()
     {
         let raw = &mut raw[..pairs.len()];
-        for (r, rec) in raw.iter_mut().zip(recs.chunks_exact(rl.len)) {
+        for (r, rec) in raw.iter_mut().zip(recs.chunks_exact(rb)) {
             *r = rows::row_position(rec);
         }
         key_block(raw, q, grid, index + b * BLOCK, pairs, &mut bounds);

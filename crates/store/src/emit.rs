@@ -516,6 +516,32 @@ pub(crate) fn position_bounds(bytes: &[u8], q: &Quantization) -> Aabb {
 mod tests {
     use super::*;
 
+    /// A plan writing `points` in pointlets of `k` through the writer threads, seed 0,
+    /// positions quantized by `scale`.
+    fn buffered_plan<'a>(
+        file: &'a File,
+        plan: &'a Plan,
+        rl: &'a RecordLayout,
+        k: u64,
+        points: u64,
+        scale: f64,
+    ) -> EmitPlan<'a> {
+        EmitPlan {
+            file,
+            path: Path::new("t.pointlet"),
+            plan,
+            rl,
+            k,
+            points,
+            seed: 0,
+            quantization: Quantization {
+                scale: [scale; 3],
+                offset: [0.0; 3],
+            },
+            map: None,
+        }
+    }
+
     /// Emits blocks `[p0, p1)` of a 40-point store of 8-point pointlets; the build's error, if any.
     fn emit_blocks(blocks: &[(u64, u64)]) -> Option<String> {
         let layout = PointLayout::default();
@@ -524,20 +550,7 @@ mod tests {
         let plan = crate::format::plan(0, points, points / k, &layout).expect("plan");
         let file = tempfile::tempfile().expect("temporary file");
         file.set_len(plan.file_len).expect("sized");
-        let out = EmitPlan {
-            file: &file,
-            path: Path::new("t.pointlet"),
-            plan: &plan,
-            rl: &rl,
-            k,
-            points,
-            seed: 0,
-            quantization: Quantization {
-                scale: [1.0; 3],
-                offset: [0.0; 3],
-            },
-            map: None,
-        };
+        let out = buffered_plan(&file, &plan, &rl, k, points, 1.0);
         let records = vec![0u8; points as usize * rl.len];
         let order: Vec<Pair> = (0..points as u32).map(|i| Pair(0, i)).collect();
         Emitter::run(&out, |em| {
@@ -570,20 +583,7 @@ mod tests {
         let (points, k) = (1u64 << 22, 2048u64);
         let plan = crate::format::plan(0, points, points / k, &layout).expect("plan");
         let file = tempfile::tempfile().expect("temporary file");
-        let out = EmitPlan {
-            file: &file,
-            path: Path::new("t.pointlet"),
-            plan: &plan,
-            rl: &rl,
-            k,
-            points,
-            seed: 0,
-            quantization: Quantization {
-                scale: [0.001; 3],
-                offset: [0.0; 3],
-            },
-            map: None,
-        };
+        let out = buffered_plan(&file, &plan, &rl, k, points, 0.001);
         let mut rng = pointlet_core::shuffle::SplitMix64::new(1);
         // On 2 MiB pages, as a build's run is.
         let mut records: Vec<u8> = Vec::with_capacity(points as usize * rl.len);

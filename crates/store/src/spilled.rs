@@ -7,13 +7,13 @@
 //! group ends on a bucket boundary, not on a pointlet's: the records of the pointlet it leaves
 //! unfinished (all with smaller keys than the next group's) go before the next group's.
 
-use crate::builder::{report, Progress};
+use crate::builder::{key_rows, report, Progress};
 use crate::emit::{Emitter, Source};
 use crate::runs::{self, Bucketing, RunFile};
 use crate::sort::{self, Pair};
 use crate::{pio, BuildPhase, StoreError};
 use pointlet_core::codes::KeyGrid;
-use pointlet_core::{rows, Quantization};
+use pointlet_core::Quantization;
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -369,21 +369,9 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         let records = &g.records;
         tasks.into_par_iter().for_each(|(pairs, first)| {
-            // Keyed a block at a time, so the positions and keys stay on the stack.
-            const BLOCK: usize = 2048;
-            let (mut raw, mut keys) = ([[0i32; 3]; BLOCK], [0u64; BLOCK]);
-            for (b, pairs) in pairs.chunks_mut(BLOCK).enumerate() {
-                let at = first + b * BLOCK;
-                let recs = records[at * rb..(at + pairs.len()) * rb].chunks_exact(rb);
-                let (raw, keys) = (&mut raw[..pairs.len()], &mut keys[..pairs.len()]);
-                for (r, rec) in raw.iter_mut().zip(recs) {
-                    *r = rows::row_position(rec);
-                }
-                grid.hilbert_raw(&q, raw, keys);
-                for (j, (pair, &key)) in pairs.iter_mut().zip(keys.iter()).enumerate() {
-                    *pair = Pair(key, (at + j) as u32);
-                }
-            }
+            let recs = &records[first * rb..(first + pairs.len()) * rb];
+            // The group's bounds are not needed: the grid is the build's.
+            key_rows(recs, q, grid, rb, first, pairs);
         });
         starts.dedup();
         sort::Buckets { starts }
