@@ -977,7 +977,7 @@ pub(crate) fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u
 fn group_capacity(budget: u64, mapped: bool, rl: &RecordLayout) -> usize {
     let per_point = (3 * rl.len + 3 * std::mem::size_of::<Pair>()) as u64;
     let pages = if mapped {
-        2 * (2 << 20) * rl.fields.len() as u64
+        2 * pio::HUGE as u64 * rl.fields.len() as u64
     } else {
         0
     };
@@ -991,7 +991,7 @@ fn group_capacity(budget: u64, mapped: bool, rl: &RecordLayout) -> usize {
 fn groups_span_pages(budget: u64, rl: &RecordLayout) -> bool {
     let capacity = group_capacity(budget, true, rl) as u64;
     let smallest = rl.fields.iter().map(|f| f.2 as u64).min().unwrap_or(1);
-    capacity * smallest >= 2 * (2 << 20)
+    capacity * smallest >= 2 * pio::HUGE as u64
 }
 
 /// Blocks of points keyed and packed at a time: small enough that their records stay in the

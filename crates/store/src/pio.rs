@@ -118,9 +118,8 @@ pub struct WriteMap {
 unsafe impl Send for WriteMap {}
 unsafe impl Sync for WriteMap {}
 
-/// 2 MiB: the page size the mapping asks for.
-#[cfg(target_os = "linux")]
-const HUGE: usize = 2 << 20;
+/// 2 MiB: the large page size mappings and buffers ask for.
+pub(crate) const HUGE: usize = 2 << 20;
 
 impl WriteMap {
     /// Maps the `len` bytes of `file`, which [`allocate`] sized with its disk space reserved
@@ -316,7 +315,7 @@ pub fn release(file: &File, offset: u64, len: u64) {
 pub fn huge_pages<T>(v: &Vec<T>) {
     #[cfg(target_os = "linux")]
     {
-        let (from, to) = aligned_span(v, 2 << 20);
+        let (from, to) = aligned_span(v, HUGE);
         if to > from {
             // SAFETY: advice on whole pages of the vector's own allocation; it changes how the
             // kernel backs them, never their contents, and a refusal leaves them as they were.

@@ -169,7 +169,7 @@ impl RunMaps {
     fn map(&self, file: &File, len: u64, path: &Path) -> Result<Option<WriteMap>, StoreError> {
         let known = self.0.load(Ordering::Relaxed);
         // A run smaller than one 2 MiB page is written, and says nothing of the larger ones.
-        if known == Self::WRITTEN || len < 2 << 20 {
+        if known == Self::WRITTEN || len < crate::pio::HUGE as u64 {
             return Ok(None);
         }
         let reserved = crate::pio::allocate(file, len)
