@@ -35,7 +35,8 @@ done
 # simple.laz, 8 bytes after the point data offset (a u32 at header byte 96).
 seed laz_chunk
 at=$(od -An -tu4 -j96 -N4 testdata/simple.laz | tr -d ' ')
-{ printf '\x13'; tail -c +$((at + 9)) testdata/simple.laz | head -c 8192; } > "$corpus/laz_chunk/simple"
+# (dd, not tail | head: head's early exit would kill tail with SIGPIPE, fatal under pipefail.)
+{ printf '\x13'; dd if=testdata/simple.laz iflag=skip_bytes,count_bytes skip=$((at + 8)) count=8192 status=none; } > "$corpus/laz_chunk/simple"
 
 seed store_reader
 if [ ! -e "$corpus/store_reader/generated.pointlet" ]; then
