@@ -354,10 +354,11 @@ impl KeyGrid {
         keys: &mut [u64],
     ) {
         let morton = |r: [i32; 3]| {
-            let c = self.cell(q.dequantize(r));
+            let p = q.dequantize(r);
             #[cfg(target_arch = "x86_64")]
             if BMI2 {
                 use std::arch::x86_64::_pdep_u64;
+                let c = self.cell(p);
                 // SAFETY: only reached from `hilbert_raw_bmi2`, on a CPU with BMI2.
                 return unsafe {
                     _pdep_u64(u64::from(c[0]), MORTON_AXIS << 2)
@@ -365,7 +366,7 @@ impl KeyGrid {
                         | _pdep_u64(u64::from(c[2]), MORTON_AXIS)
                 };
             }
-            morton3(c[0], c[1], c[2])
+            self.morton(p)
         };
         let mut eights = raw.chunks_exact(8);
         let mut outs = keys.chunks_exact_mut(8);
