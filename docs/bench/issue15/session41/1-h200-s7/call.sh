@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# As run in session 41 from docs/bench/issue15/next-call/, beside offcpu.py (now ../../offcpu.py).
 # Prepared in session 40 for the next lent GPU machine (issue 15), not yet run. s7 = 1467bd6
 # (session 39's final code: cheaper keys, a group's run pages given back once per piece), s7fp
 # = the same built with frame pointers for stacks. The out-of-core build keeps ~11.5 of 16
