@@ -573,6 +573,8 @@ mod tests {
         fail_on: Option<usize>,
         /// The most requests one read_many was given.
         largest_batch: AtomicUsize,
+        /// Reads wait while this is false: tasks pile up in the queue meanwhile.
+        open: AtomicBool,
     }
 
     impl PointletSource for Synthetic {
@@ -601,6 +603,9 @@ mod tests {
             requests: &[(usize, Range<u32>)],
             outs: &mut [PointletData],
         ) -> Vec<Result<(), SourceError>> {
+            while !self.open.load(Acquire) {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
             self.largest_batch.fetch_max(requests.len(), Relaxed);
             requests
                 .iter()
@@ -624,6 +629,7 @@ mod tests {
             size: 1000,
             fail_on,
             largest_batch: AtomicUsize::new(0),
+            open: AtomicBool::new(true),
         };
         RamCache::new(
             src,
@@ -670,7 +676,12 @@ mod tests {
         let wanted: Vec<u32> = (0..100).map(|i| (i * 7 % 1000) as u32).collect();
         let mut one = cache(1_000_000, Some(3));
         let mut many = cache_batched(1_000_000, Some(3), 16);
-        // A whole frame's tasks are queued before the loaders may take them.
+        // The loaders' first reads wait until a whole frame's tasks are queued, so that later
+        // ones find several waiting (unheld, loaders as fast as the requests took them one by
+        // one now and then).
+        many.source().open.store(false, Release);
+        many.request(&wanted);
+        many.source().open.store(true, Release);
         for c in [&mut one, &mut many] {
             settle(c, &wanted);
         }
