@@ -171,10 +171,13 @@ pub(crate) struct ScreenPasses {
     fill: wgpu::ComputePipeline,
     occlusion: wgpu::ComputePipeline,
     compose_layout: wgpu::BindGroupLayout,
-    compose: wgpu::ComputePipeline,
+    /// Without and with EDL.
+    compose: [wgpu::ComputePipeline; 2],
     blended_out_layout: wgpu::BindGroupLayout,
-    /// Normalisation + EDL per blending kind.
-    blended: HashMap<PixelKind, (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    /// Normalisation + EDL per blending kind, without and with EDL.
+    blended: HashMap<(PixelKind, bool), (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    /// Whether this frame's compose passes shade with EDL (set by `prepare`).
+    edl: bool,
     gaps_layout: wgpu::BindGroupLayout,
     /// Splat gap filling per shape: the tile pass and the fill pass.
     gaps: HashMap<SplatShape, (wgpu::ComputePipeline, wgpu::ComputePipeline)>,
@@ -275,13 +278,16 @@ impl ScreenPasses {
             "occlusion",
             &[&fill_layout],
         );
-        let compose = pipeline(
-            device,
-            "compose",
-            &format!("{}\n{}", shaders::EDL, shaders::COMPOSE),
-            "compose",
-            &[&compose_layout],
-        );
+        let compose = [false, true].map(|edl| {
+            pipeline_with(
+                device,
+                "compose",
+                &format!("{}\n{}", shaders::EDL, shaders::COMPOSE),
+                "compose",
+                &[&compose_layout],
+                &[("EDL", edl as u32 as f64)],
+            )
+        });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("screen uniforms"),
             size: 1024,
@@ -298,6 +304,7 @@ impl ScreenPasses {
             compose,
             blended_out_layout,
             blended: HashMap::new(),
+            edl: false,
             gaps_layout,
             gaps: HashMap::new(),
             uniforms,
@@ -346,7 +353,7 @@ impl ScreenPasses {
     /// Writes this frame's uniforms; call before recording. `fov_y_deg` sizes pixels for the
     /// occlusion filter and splats for EDL.
     pub fn prepare(
-        &self,
+        &mut self,
         queue: &wgpu::Queue,
         target: &RenderTarget,
         s: &ScreenSettings,
@@ -360,6 +367,7 @@ impl ScreenPasses {
             radius: s.fill_radius,
             _pad: [0; 3],
         };
+        self.edl = s.edl.is_some();
         let edl = s.edl.unwrap_or(EdlSettings {
             strength: 0.0,
             radius: 1.0,
@@ -492,7 +500,7 @@ impl ScreenPasses {
             (COMPOSE_OFFSET, 32),
             &[&src.color, &src.depth, &target.output],
         );
-        pass.set_pipeline(&self.compose);
+        pass.set_pipeline(&self.compose[self.edl as usize]);
         pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
     }
@@ -567,18 +575,20 @@ impl ScreenPasses {
             return;
         };
         let out = &self.blended_out_layout;
+        let edl = self.edl;
         let (p, g1) = self
             .blended
-            .entry(kind)
+            .entry((kind, edl))
             .or_insert_with(|| {
                 let group1 = storage_layout(device, n, true);
                 let source = format!("{}\n{body}\n{}", shaders::EDL, shaders::COMPOSE_BLENDED);
-                let p = pipeline(
+                let p = pipeline_with(
                     device,
                     "normalise and compose",
                     &source,
                     "compose",
                     &[out, &group1],
+                    &[("EDL", edl as u32 as f64)],
                 );
                 (p, group1)
             })
