@@ -201,13 +201,14 @@ unsafe fn scatter_by(
     // The sums over chunks go a block of buckets per task: 2^16 buckets of 64 chunks summed
     // on one thread took 40 ms while the other cores waited (GPU machine, 200 M points).
     let block = nb.div_ceil(rayon::current_num_threads() * 4).max(1024);
-    let totals: Vec<usize> = (0..nb.div_ceil(block))
+    let block_count = nb.div_ceil(block);
+    let buckets_of = |j: usize| j * block..((j + 1) * block).min(nb);
+    let totals: Vec<usize> = (0..block_count)
         .into_par_iter()
         .flat_map_iter(|j| {
-            let range = j * block..((j + 1) * block).min(nb);
-            let mut t = vec![0usize; range.len()];
+            let mut t = vec![0usize; buckets_of(j).len()];
             for h in &offsets {
-                for (t, n) in t.iter_mut().zip(&h[range.clone()]) {
+                for (t, n) in t.iter_mut().zip(&h[buckets_of(j)]) {
                     *t += n;
                 }
             }
@@ -221,7 +222,7 @@ unsafe fn scatter_by(
         at += t;
     }
     starts.push(at);
-    let mut blocks: Vec<Vec<&mut [usize]>> = (0..nb.div_ceil(block))
+    let mut blocks: Vec<Vec<&mut [usize]>> = (0..block_count)
         .map(|_| Vec::with_capacity(offsets.len()))
         .collect();
     for h in offsets.iter_mut() {
@@ -230,7 +231,7 @@ unsafe fn scatter_by(
         }
     }
     blocks.into_par_iter().enumerate().for_each(|(j, parts)| {
-        let mut at = starts[j * block..(j * block + block).min(nb)].to_vec();
+        let mut at = starts[buckets_of(j)].to_vec();
         for part in parts {
             for (o, a) in part.iter_mut().zip(at.iter_mut()) {
                 let n = *o;
