@@ -31,8 +31,7 @@ struct Frame {
     size: vec2<u32>,
     // HQS: points within this factor of the closest depth blend (the paper's 1 %).
     blend_factor: f32,
-    // Non-zero when some class is hidden (else no colour needs loading to decide visibility).
-    any_hidden: u32,
+    _pad: u32,
     // One bit per ASPRS class (the colour's alpha byte): set = hidden.
     hidden_classes: array<vec4<u32>, 2>,
     // Splat size in pixels (SPLATS pipelines): `splat_fixed`, or with `splat_scale` > 0

@@ -1,15 +1,11 @@
 // Hole filling (virtualized paper §III-D1): an empty pixel takes the mean colour and mean depth
 // of the non-empty pixels in its (2r+1)×(2r+1) neighbourhood; with none, it stays empty.
 // Deliberately simple: no boundary detection, so silhouettes grow by r pixels.
+// The radius is a pipeline constant, not a uniform: lavapipe recompiles a loop bounded by a
+// uniform at every bind and keeps each copy.
 
-struct FillParams {
-    radius: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+override RADIUS: u32 = 1u;
 
-@group(0) @binding(0) var<uniform> params: FillParams;
 @group(0) @binding(1) var in_color: texture_2d<f32>;
 @group(0) @binding(2) var in_depth: texture_2d<f32>;
 @group(0) @binding(3) var out_color: texture_storage_2d<rgba8unorm, write>;
@@ -28,7 +24,7 @@ fn fill(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(out_depth, here, textureLoad(in_depth, here, 0));
         return;
     }
-    let r = i32(params.radius);
+    let r = i32(RADIUS);
     var sum = vec3<f32>(0.0);
     var depth = 0.0;
     var n = 0.0;

@@ -326,7 +326,7 @@ pub(crate) fn write_frame(
         ),
         size: [width, height],
         blend_factor: 1.01,
-        any_hidden: hidden_classes.iter().any(|w| *w != 0) as u32,
+        _pad: 0,
         hidden_classes: *hidden_classes,
         splat: settings.splat_words(camera.focal_px(height)),
     };

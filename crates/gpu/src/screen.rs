@@ -64,13 +64,6 @@ struct ScreenUniform {
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct FillUniform {
-    radius: u32,
-    _pad: [u32; 3],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
 struct ComposeUniform {
     background: [f32; 4],
     strength: f32,
@@ -168,7 +161,11 @@ pub(crate) struct ScreenPasses {
     /// Per pixel kind, and whether colours carry splat sizes.
     resolve: HashMap<(PixelKind, bool), (wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     fill_layout: wgpu::BindGroupLayout,
-    fill: wgpu::ComputePipeline,
+    /// Hole filling per radius (a constant of the pipeline: lavapipe recompiles a loop bounded
+    /// by a uniform at every bind).
+    fills: HashMap<u32, wgpu::ComputePipeline>,
+    /// This frame's hole-filling radius (set by `prepare`).
+    fill_radius: u32,
     occlusion: wgpu::ComputePipeline,
     compose_layout: wgpu::BindGroupLayout,
     /// Without and with EDL.
@@ -185,7 +182,6 @@ pub(crate) struct ScreenPasses {
 }
 
 const SCREEN_OFFSET: u64 = 0;
-const FILL_OFFSET: u64 = 256;
 const COMPOSE_OFFSET: u64 = 512;
 const OCCLUSION_OFFSET: u64 = 768;
 /// Directions (of 8) that must be blocked for the occlusion filter to drop a pixel.
@@ -269,7 +265,6 @@ impl ScreenPasses {
                 Binding::Buffer,
             ],
         );
-        let fill = pipeline(device, "fill", shaders::FILL, "fill", &[&fill_layout]);
         // Same bindings as filling: one layer in, the other out.
         let occlusion = pipeline(
             device,
@@ -298,7 +293,8 @@ impl ScreenPasses {
             resolve_out_layout,
             resolve: HashMap::new(),
             fill_layout,
-            fill,
+            fills: HashMap::new(),
+            fill_radius: 0,
             occlusion,
             compose_layout,
             compose,
@@ -363,10 +359,7 @@ impl ScreenPasses {
             size: [target.width, target.height],
             _pad: [0; 2],
         };
-        let fill = FillUniform {
-            radius: s.fill_radius,
-            _pad: [0; 3],
-        };
+        self.fill_radius = s.fill_radius;
         self.edl = s.edl.is_some();
         let edl = s.edl.unwrap_or(EdlSettings {
             strength: 0.0,
@@ -380,7 +373,6 @@ impl ScreenPasses {
             _pad: 0.0,
         };
         queue.write_buffer(&self.uniforms, SCREEN_OFFSET, bytemuck::bytes_of(&screen));
-        queue.write_buffer(&self.uniforms, FILL_OFFSET, bytemuck::bytes_of(&fill));
         queue.write_buffer(&self.uniforms, COMPOSE_OFFSET, bytemuck::bytes_of(&compose));
         let o = s.occlusion.unwrap_or_default();
         let pixel_angle = 2.0 * (fov_y_deg.to_radians() * 0.5).tan() / target.height.max(1) as f64;
@@ -463,7 +455,7 @@ impl ScreenPasses {
 
     /// Records a filter from layer `src` to layer `dst`.
     pub fn filter(
-        &self,
+        &mut self,
         device: &wgpu::Device,
         pass: &mut wgpu::ComputePass<'_>,
         target: &RenderTarget,
@@ -472,8 +464,22 @@ impl ScreenPasses {
         dst: &Layer,
     ) {
         let (pipeline, offset) = match filter {
-            Filter::Occlusion => (&self.occlusion, OCCLUSION_OFFSET),
-            Filter::HoleFill => (&self.fill, FILL_OFFSET),
+            Filter::Occlusion => (self.occlusion.clone(), OCCLUSION_OFFSET),
+            // Filling reads no uniform; its layout is the occlusion filter's.
+            Filter::HoleFill => {
+                let layout = &self.fill_layout;
+                let fill = self.fills.entry(self.fill_radius).or_insert_with(|| {
+                    pipeline_with(
+                        device,
+                        "fill",
+                        shaders::FILL,
+                        "fill",
+                        &[layout],
+                        &[("RADIUS", self.fill_radius as f64)],
+                    )
+                });
+                (fill.clone(), SCREEN_OFFSET)
+            }
         };
         let group = self.textures(
             device,
@@ -481,7 +487,7 @@ impl ScreenPasses {
             (offset, 16),
             &[&src.color, &src.depth, &dst.color, &dst.depth],
         );
-        pass.set_pipeline(pipeline);
+        pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
     }

@@ -163,7 +163,7 @@ pub(crate) struct GpuFrame {
     pub view_proj: [[f32; 4]; 4],
     pub size: [u32; 2],
     pub blend_factor: f32,
-    pub any_hidden: u32,
+    pub _pad: u32,
     pub hidden_classes: [u32; 8],
     /// Fixed side, adaptive scale, largest side, ring ratio (`SplatSettings::uniform`).
     pub splat: [f32; 4],

@@ -268,25 +268,29 @@ fn hidden_classes_are_not_drawn() {
     for (k, c) in scene.set.colors.iter_mut().enumerate() {
         *c = (*c & 0x00ff_ffff) | if k % 2 == 0 { 2 << 24 } else { 6 << 24 };
     }
-    let mut settings = pointlet_gpu::RenderSettings {
-        variant: RasterVariant::EarlyZ,
-        ..Default::default()
-    };
-    settings.set_class_hidden(6, true);
-    assert!(settings.class_hidden(6) && !settings.class_hidden(2));
     let kept: Vec<usize> = (0..scene.set.len()).filter(|k| k % 2 == 0).collect();
     let positions: Vec<[f64; 3]> = kept.iter().map(|k| scene.set.positions[*k]).collect();
     let colors: Vec<u32> = kept.iter().map(|k| scene.set.colors[*k]).collect();
     let expected = closest_reference(&positions, &colors);
-    let mut cloud = pointlet_gpu::GpuCloud::upload(&ctx, &scene.set, PointEncoding::Full16, 256)
-        .expect("upload");
-    let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
-    let mut renderer = pointlet_gpu::Renderer::new(&ctx);
-    renderer
-        .render(&ctx, &mut cloud, &camera(), &settings, &mut target)
-        .expect("render");
-    let got = target.read_rgba(&ctx).expect("readback");
-    assert_eq!(diff(&got, &expected), (0, 0));
+    // One pass, and the depth pass then colour pass of the 32-bit fallback.
+    for variant in [RasterVariant::EarlyZ, RasterVariant::AtomicMin32] {
+        let mut settings = pointlet_gpu::RenderSettings {
+            variant,
+            ..Default::default()
+        };
+        settings.set_class_hidden(6, true);
+        assert!(settings.class_hidden(6) && !settings.class_hidden(2));
+        let mut cloud =
+            pointlet_gpu::GpuCloud::upload(&ctx, &scene.set, PointEncoding::Full16, 256)
+                .expect("upload");
+        let mut target = pointlet_gpu::RenderTarget::new(&ctx, W, H).expect("target");
+        let mut renderer = pointlet_gpu::Renderer::new(&ctx);
+        renderer
+            .render(&ctx, &mut cloud, &camera(), &settings, &mut target)
+            .expect("render");
+        let got = target.read_rgba(&ctx).expect("readback");
+        assert_eq!(diff(&got, &expected), (0, 0), "{variant:?}");
+    }
 }
 
 #[test]
