@@ -18,6 +18,7 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::Mutex;
 use std::thread::JoinHandle;
 
 /// Which bucket a key falls in: `(key >> shift) - base`, among `count` buckets.
@@ -203,10 +204,95 @@ fn gather_records(records: &[u8], pairs: &[Pair], rb: usize, out: &mut [u8]) {
         });
 }
 
+/// Most tasks of the mapped gather that may run ahead of the first unfinished one.
+const GATHER_WINDOW: usize = 8;
+
+/// Gathers the records of `order` into `map` in 2 MiB tasks taken in file order, by the calling
+/// thread and by any pool thread that comes free, releasing the finished prefix every
+/// `release_bytes`. The calling thread (a spiller) works through the tasks itself: pool threads
+/// take queued jobs only once the reader's decoding leaves them idle, and a spiller that waited
+/// for them chunk after chunk kept the reader waiting in turn (GPU machine, docs/BENCHMARKS.md).
+/// Tasks run at most half a release ahead, so the process maps at most 1.5 releases of the run
+/// (and the page either side) whatever the threads do.
+fn gather_into_map(
+    map: &WriteMap,
+    records: &[u8],
+    order: &[Pair],
+    rb: usize,
+    release_bytes: usize,
+) -> bool {
+    use std::sync::atomic::{AtomicBool, AtomicUsize};
+    let piece = (crate::pio::HUGE / rb.max(1)).max(4096);
+    let tasks = order.len().div_ceil(piece);
+    let window = (release_bytes / (2 * piece * rb)).clamp(1, GATHER_WINDOW);
+    let next = AtomicUsize::new(0);
+    let done: Vec<AtomicBool> = (0..tasks).map(|_| AtomicBool::new(false)).collect();
+    let outside = AtomicBool::new(false);
+    // The first unfinished task and the bytes released so far; `first` mirrors the former for
+    // the tasks waiting on the window.
+    let frontier = Mutex::new((0usize, 0u64));
+    let first = AtomicUsize::new(0);
+    // A pool thread leaves where the window is full; the calling thread waits there for
+    // whoever holds the first unfinished task, which is copying.
+    let worker = |helper: bool| loop {
+        let t = next.load(Ordering::Relaxed);
+        if t >= tasks {
+            return;
+        }
+        if t >= first.load(Ordering::Acquire) + window {
+            if helper {
+                return;
+            }
+            std::thread::yield_now();
+            continue;
+        }
+        if next
+            .compare_exchange(t, t + 1, Ordering::Relaxed, Ordering::Relaxed)
+            .is_err()
+        {
+            continue;
+        }
+        let part = &order[t * piece..((t + 1) * piece).min(order.len())];
+        // SAFETY: task t's bytes, which no other task covers.
+        match unsafe { map.slice((t * piece * rb) as u64, part.len() * rb) } {
+            Some(out) => {
+                for (e, &Pair(_, idx)) in out.chunks_exact_mut(rb).zip(part) {
+                    let at = idx as usize * rb;
+                    e.copy_from_slice(&records[at..at + rb]);
+                }
+            }
+            None => outside.store(true, Ordering::Relaxed),
+        }
+        done[t].store(true, Ordering::Release);
+        let mut f = lock(&frontier);
+        while f.0 < tasks && done[f.0].load(Ordering::Acquire) {
+            f.0 += 1;
+        }
+        first.store(f.0, Ordering::Release);
+        let written = (f.0 * piece).min(order.len()) as u64 * rb as u64;
+        if written >= f.1 + release_bytes as u64 || f.0 == tasks {
+            map.release(0, written);
+            f.1 = written;
+        }
+    };
+    rayon::in_place_scope(|s| {
+        for _ in 0..rayon::current_num_threads() {
+            s.spawn(|_| worker(true));
+        }
+        worker(false);
+    });
+    !outside.load(Ordering::Relaxed)
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    // Nothing panics while holding it; were it poisoned, the counts in it are still right.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Writes the records of an in-memory run in `order` (bucketed, bucket `b` at
-/// `order[starts[b]..starts[b + 1]]`) as a run file: gathered a chunk at a time into its
-/// mapping, each chunk's pages leaving the process once written, or else one chunk written
-/// while the next is gathered.
+/// `order[starts[b]..starts[b + 1]]`) as a run file: gathered into its mapping, its pages
+/// leaving the process as they are written, or else one chunk written while the next is
+/// gathered.
 pub(crate) fn write_run(
     path: PathBuf,
     records: &[u8],
@@ -225,14 +311,8 @@ pub(crate) fn write_run(
     let failed = |e| StoreError::io(&run.path, "writing a temporary run file", e);
     if let Some(map) = maps.map(&file, (records_len + tail.len()) as u64, &run.path)? {
         let outside = || StoreError::build(&run.path, "internal error: a run outside its file");
-        for (i, part) in order.chunks(chunk_points).enumerate() {
-            let at = (i * chunk_points * rb) as u64;
-            // SAFETY: chunks of the records are apart, and each slice is dropped before the
-            // next is taken.
-            let out = unsafe { map.slice(at, part.len() * rb) }.ok_or_else(outside)?;
-            gather_records(records, part, rb, out);
-            // From the start: the page the last chunk ended in is whole only now.
-            map.release(0, at + (part.len() * rb) as u64);
+        if !gather_into_map(&map, records, order, rb, chunk_bytes) {
+            return Err(outside());
         }
         // SAFETY: the bytes after the records, which no other slice covers.
         unsafe { map.slice(records_len as u64, tail.len()) }
@@ -625,6 +705,27 @@ mod tests {
         read_records(&_s, 5, &mut back).unwrap();
         let i = pairs[5].1 as usize;
         assert_eq!(back, records[i * rb..(i + 1) * rb]);
+    }
+
+    #[test]
+    fn a_mapped_run_of_more_gather_tasks_than_the_window_is_written_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        // 41 MiB of 24-byte records: 20 tasks of 2 MiB, five times the window, released
+        // every 16 MiB.
+        let (rb, n) = (24, 1_800_000u32);
+        let records: Vec<u8> = (0..n * rb as u32).map(|i| (i * 13 % 253) as u8).collect();
+        let mut pairs: Vec<Pair> = (0..n).map(|i| Pair(u64::from(i * 37 % 101), i)).collect();
+        let starts = crate::sort::bucket_by(&mut pairs, &mut Vec::new(), 101, |k| k as usize);
+        assert!(n as usize * rb > (GATHER_WINDOW + 2) * crate::pio::HUGE);
+        let write = |maps: RunMaps| {
+            let path = temp_name(dir.path(), "t", "run");
+            let run = write_run(path, &records, &pairs, &starts, rb, 16 << 20, &maps).unwrap();
+            std::fs::read(&run.path).unwrap()
+        };
+        let written = write(RunMaps(RunMaps::WRITTEN.into()));
+        let mapped = write(RunMaps(RunMaps::MAPPED.into()));
+        assert_eq!(written.len(), n as usize * rb + 8 * starts.len());
+        assert!(mapped == written, "a mapped run differs");
     }
 
     #[test]
