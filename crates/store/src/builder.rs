@@ -212,9 +212,10 @@ enum WriteMapUse {
 fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool) {
     let io_chunk = (budget / 32).clamp(256 << 10, 16 << 20) as usize;
     // A run holds its records and (key, index) pairs, and the radix pass scatters the pairs
-    // into a second array; two I/O chunks (spill gather, write-out) come on top.
+    // into a second array; on top come the pages of run files being gathered (at most three
+    // I/O chunks a spilling thread, `runs::write_run`) or the output's being written.
     let per_point = (record + 2 * std::mem::size_of::<Pair>()) as u64;
-    let room = budget.saturating_sub(2 * io_chunk as u64);
+    let room = budget.saturating_sub(3 * runs::SPILLERS as u64 * io_chunk as u64);
     let whole = room / per_point;
     let clamp = |v: u64| v.clamp(MIN_RUN_POINTS as u64, u32::MAX as u64) as usize;
     if claimed <= whole {

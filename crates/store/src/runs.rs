@@ -204,16 +204,17 @@ fn gather_records(records: &[u8], pairs: &[Pair], rb: usize, out: &mut [u8]) {
         });
 }
 
-/// Most tasks of the mapped gather that may run ahead of the first unfinished one.
-const GATHER_WINDOW: usize = 8;
+/// Most tasks of the mapped gather that may run ahead of the first unfinished one: a pool left
+/// idle while the reader waits for a spiller gathers with all its threads.
+const GATHER_WINDOW: usize = 16;
 
 /// Gathers the records of `order` into `map` in 2 MiB tasks taken in file order, by the calling
 /// thread and by any pool thread that comes free, releasing the finished prefix every
 /// `release_bytes`. The calling thread (a spiller) works through the tasks itself: pool threads
 /// take queued jobs only once the reader's decoding leaves them idle, and a spiller that waited
 /// for them chunk after chunk kept the reader waiting in turn (GPU machine, docs/BENCHMARKS.md).
-/// Tasks run at most half a release ahead, so the process maps at most 1.5 releases of the run
-/// (and the page either side) whatever the threads do.
+/// Tasks run at most two releases ahead, so the process maps at most three releases of the
+/// run (and the page either side) whatever the threads do.
 fn gather_into_map(
     map: &WriteMap,
     records: &[u8],
@@ -224,7 +225,7 @@ fn gather_into_map(
     use std::sync::atomic::{AtomicBool, AtomicUsize};
     let piece = (crate::pio::HUGE / rb.max(1)).max(4096);
     let tasks = order.len().div_ceil(piece);
-    let window = (release_bytes / (2 * piece * rb)).clamp(1, GATHER_WINDOW);
+    let window = (2 * release_bytes / (piece * rb)).clamp(1, GATHER_WINDOW);
     let next = AtomicUsize::new(0);
     let done: Vec<AtomicBool> = (0..tasks).map(|_| AtomicBool::new(false)).collect();
     let outside = AtomicBool::new(false);
@@ -710,16 +711,15 @@ mod tests {
     #[test]
     fn a_mapped_run_of_more_gather_tasks_than_the_window_is_written_whole() {
         let dir = tempfile::tempdir().unwrap();
-        // 41 MiB of 24-byte records: 20 tasks of 2 MiB, five times the window, released
-        // every 16 MiB.
+        // 41 MiB of 24-byte records: 20 tasks of 2 MiB, released every 2 MiB, so at most two
+        // tasks ahead of the first unfinished one.
         let (rb, n) = (24, 1_800_000u32);
         let records: Vec<u8> = (0..n * rb as u32).map(|i| (i * 13 % 253) as u8).collect();
         let mut pairs: Vec<Pair> = (0..n).map(|i| Pair(u64::from(i * 37 % 101), i)).collect();
         let starts = crate::sort::bucket_by(&mut pairs, &mut Vec::new(), 101, |k| k as usize);
-        assert!(n as usize * rb > (GATHER_WINDOW + 2) * crate::pio::HUGE);
         let write = |maps: RunMaps| {
             let path = temp_name(dir.path(), "t", "run");
-            let run = write_run(path, &records, &pairs, &starts, rb, 16 << 20, &maps).unwrap();
+            let run = write_run(path, &records, &pairs, &starts, rb, 2 << 20, &maps).unwrap();
             std::fs::read(&run.path).unwrap()
         };
         let written = write(RunMaps(RunMaps::WRITTEN.into()));
