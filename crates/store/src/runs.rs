@@ -433,38 +433,28 @@ impl Spiller {
         let workers = (0..SPILLERS)
             .map(|_| {
                 let (todo, busy, maps) = (todo.clone(), busy.clone(), maps.clone());
-                std::thread::spawn(move || {
-                    // The bucketing pass on a thread of its own: queued on the shared pool, it
-                    // would wait for the reader's decoding to leave threads idle.
-                    let own = rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
-                    loop {
-                        let job = todo.lock().map(|queue| queue.recv());
-                        let Ok(Ok((path, mut run, reply))) = job else {
-                            return;
-                        };
-                        let started = std::time::Instant::now();
-                        let starts = match &own {
-                            Some(pool) => pool.install(|| bucket_run(&mut run, Bucketing::top())),
-                            None => bucket_run(&mut run, Bucketing::top()),
-                        };
-                        let bucketed = std::time::Instant::now();
-                        let (records, pairs) = (&run.records, &run.pairs);
-                        let result =
-                            write_run(path, records, pairs, &starts, rb, chunk_bytes, &maps).map(
-                                |f| {
-                                    run.records.clear();
-                                    run.pairs.clear();
-                                    (f, run)
-                                },
-                            );
-                        let nanos = |d: std::time::Duration| d.as_nanos() as u64;
-                        busy.bucketing
-                            .fetch_add(nanos(bucketed - started), Ordering::Relaxed);
-                        busy.writing
-                            .fetch_add(nanos(bucketed.elapsed()), Ordering::Relaxed);
-                        // A dropped receiver means the build was abandoned; the run file goes.
-                        let _ = reply.send(result);
-                    }
+                std::thread::spawn(move || loop {
+                    let job = todo.lock().map(|queue| queue.recv());
+                    let Ok(Ok((path, mut run, reply))) = job else {
+                        return;
+                    };
+                    let started = std::time::Instant::now();
+                    let starts = bucket_run(&mut run, Bucketing::top());
+                    let bucketed = std::time::Instant::now();
+                    let (records, pairs) = (&run.records, &run.pairs);
+                    let result = write_run(path, records, pairs, &starts, rb, chunk_bytes, &maps)
+                        .map(|f| {
+                            run.records.clear();
+                            run.pairs.clear();
+                            (f, run)
+                        });
+                    let nanos = |d: std::time::Duration| d.as_nanos() as u64;
+                    busy.bucketing
+                        .fetch_add(nanos(bucketed - started), Ordering::Relaxed);
+                    busy.writing
+                        .fetch_add(nanos(bucketed.elapsed()), Ordering::Relaxed);
+                    // A dropped receiver means the build was abandoned; the run file goes too.
+                    let _ = reply.send(result);
                 })
             })
             .collect();
