@@ -9,15 +9,15 @@
 # 200 M LAS in memory and out of core (1 GiB); PotreeConverter once; 200 M LAZ bench-read and
 # convert with cur (in memory, no spilling: the builds differ only out of core). Every store
 # compared with the first one written.
-# call2.sh times session 42's depth pass change (bench-raster).
+# ../2-h100-raster/call.sh times session 42's depth pass change (bench-raster).
 # Binaries (built on dev: `cargo build --release -p pointlet` in a `git worktree add DIR COMMIT`
 # for each, then `objcopy --strip-debug` and `xz -9` into .dev/pointlet-NAME.xz).
 # .dev/potree: a copy of ../shared/tools/potree-converter; .dev/time_*.deb: `apt-get download
 # time`.
-# Run: run(command="bash docs/bench/next-call/call.sh", carry=[".dev/pointlet-cur.xz",
+# Run: run(command="bash docs/bench/issue15/session42/1-h100-s9-s42a-cur/call.sh", carry=[".dev/pointlet-cur.xz",
 #   ".dev/pointlet-s42a.xz", ".dev/pointlet-s9.xz", ".dev/time_1.9-0.2_amd64.deb",
-#   ".dev/potree"]) -- ~6 minutes (one call allows 10); then move this folder under
-#   docs/bench/issue15/sessionNN/.
+#   ".dev/potree"]) -- ~6 minutes (one call allows 10); (archived as run: moved under
+#   docs/bench/issue15/session42/)
 set -uo pipefail
 exec > >(tee "$OUT/log.txt") 2>&1
 X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }

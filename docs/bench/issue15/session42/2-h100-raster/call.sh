@@ -2,8 +2,8 @@
 # Prepared in session 42: session 42's depth pass (the colour loaded for every point that passes
 # the depth test, no branch on the uniform any_hidden, which lavapipe recompiled at every bind)
 # against s9 (32155d6): bench-raster of atomic-min-32, hqs and hqs1r on 100 M generated points,
-# both encodings, every vertex order, alternated, twice. Binaries as call.sh says.
-# Run: run(command="bash docs/bench/next-call/call2.sh", carry=[".dev/pointlet-cur.xz",
+# both encodings, every vertex order, alternated, twice. Binaries as ../1-h100-s9-s42a-cur/call.sh says.
+# Run: run(command="bash docs/bench/issue15/session42/2-h100-raster/call.sh", carry=[".dev/pointlet-cur.xz",
 #   ".dev/pointlet-s9.xz", ".gl"]) -- ~4 minutes.
 set -uo pipefail
 exec > >(tee "$OUT/log.txt") 2>&1

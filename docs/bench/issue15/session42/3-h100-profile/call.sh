@@ -3,7 +3,7 @@
 # 9.0-10.2 sys s out of core against 17.4-18.3 + 5.1-6.5 in memory). Flat on-CPU profiles (999
 # Hz, by symbol and by DSO) of s42a in memory and out of core (1 GiB), the out-of-core one also
 # cut at 45 % of its time (about the reading stage's end). One archive comes back.
-# Run: run(command="bash docs/bench/next-call/call3.sh", carry=[".dev/pointlet-s42a.xz",
+# Run: run(command="bash docs/bench/issue15/session42/3-h100-profile/call.sh", carry=[".dev/pointlet-s42a.xz",
 #   ".dev/time_1.9-0.2_amd64.deb", ".dev/perfpk.tgz"])
 set -uo pipefail
 exec > >(tee "$OUT/log.txt") 2>&1
