@@ -165,7 +165,7 @@ struct Shared {
     claimed: Vec<AtomicU64>,
 }
 
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     // A poisoned lock means a thread panicked; the build fails anyway, the data is still usable.
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
