@@ -66,6 +66,14 @@ struct Summary<'a> {
     /// Batches staged in newly mapped upload memory, and in reused memory.
     staged_new: u64,
     staged_reused: u64,
+    /// Making the passes and the GPU buffers (s), part of the time to the first frame.
+    open_passes_s: f64,
+    open_buffers_s: f64,
+    gpu_bytes: u64,
+    /// The load threads making new upload memory, and the load thread waiting for the render
+    /// thread to take batches (s): which side bounded loading.
+    staging_s: f64,
+    queue_waited_s: f64,
     /// Frame statistics of the frames drawn while loading.
     loading_stats: Option<FrameStats>,
     stats: &'a FrameStats,
@@ -253,11 +261,21 @@ pub fn run(args: &Args) -> Result<()> {
         3,
     )
     .context("measuring the upload path")?;
+    let open = scene.open_times();
     println!(
-        "upload memory: {} batches staged, {} newly mapped, {} reused",
+        "opening: passes {:.1} ms, GPU buffers {:.1} ms ({})",
+        open.passes.as_secs_f64() * 1e3,
+        open.buffers.as_secs_f64() * 1e3,
+        pointlet_core::size::format_bytes(scene.gpu_bytes())
+    );
+    println!(
+        "upload memory: {} batches staged, {} newly mapped in {:.3} s, {} reused; the load thread \
+         waited {:.3} s for the render thread to take batches",
         progress.staged_new + progress.staged_reused,
         progress.staged_new,
-        progress.staged_reused
+        progress.staging.as_secs_f64(),
+        progress.staged_reused,
+        progress.queue_waited.as_secs_f64()
     );
     println!(
         "upload path ({} MB): threads write mapped upload memory at {:.1} GB/s, the GPU copies it at {:.1} GB/s; loading moved {:.1} GB/s of 16-byte points",
@@ -294,6 +312,11 @@ pub fn run(args: &Args) -> Result<()> {
             upload_copy_gbs: upload.copy_gbs,
             staged_new: progress.staged_new,
             staged_reused: progress.staged_reused,
+            open_passes_s: open.passes.as_secs_f64(),
+            open_buffers_s: open.buffers.as_secs_f64(),
+            gpu_bytes: scene.gpu_bytes(),
+            staging_s: progress.staging.as_secs_f64(),
+            queue_waited_s: progress.queue_waited.as_secs_f64(),
             loading_stats,
             stats: &stats,
             stages: &stage_table,

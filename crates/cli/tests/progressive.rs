@@ -133,6 +133,9 @@ fn bench_of_a_point_file_reports_loading_and_convergence() {
         "fully loaded after",
         "converged",
         "points/s",
+        "opening: passes",
+        "GPU buffers",
+        "waited",
     ] {
         assert!(out.contains(needle), "no '{needle}' in:\n{out}");
     }
@@ -145,11 +148,27 @@ fn bench_of_a_point_file_reports_loading_and_convergence() {
         "load_mb_per_s",
         "converge_s",
         "share_drawn",
+        "open_passes_s",
+        "open_buffers_s",
+        "staging_s",
+        "queue_waited_s",
     ] {
         let x = v[key].as_f64().unwrap_or(-1.0);
         assert!(x.is_finite() && x >= 0.0, "{key} = {}", v[key]);
     }
     assert!(v["first_frame_s"].as_f64() <= v["loaded_s"].as_f64());
+    // Opening is part of the time to the first frame; the buffer holds every point.
+    let open = v["open_passes_s"].as_f64().unwrap_or(f64::NAN)
+        + v["open_buffers_s"].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        open > 0.0 && open <= v["first_frame_s"].as_f64().unwrap_or(0.0),
+        "{open}"
+    );
+    assert!(
+        v["gpu_bytes"].as_u64() >= Some(110_000 * 16),
+        "{}",
+        v["gpu_bytes"]
+    );
     assert_eq!(v["points"], 110_000);
     assert_eq!(v["frames"].as_array().map(Vec::len), Some(8));
 }

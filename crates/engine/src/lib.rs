@@ -17,7 +17,7 @@ mod tileset_scene;
 
 pub use datasets::{inputs_name, open_inputs, Datasets};
 pub use progressive_scene::{
-    FillBudget, ProgressiveConfig, ProgressiveReport, ProgressiveScene, SLOT_BYTES,
+    FillBudget, OpenTimes, ProgressiveConfig, ProgressiveReport, ProgressiveScene, SLOT_BYTES,
 };
 pub use residency::{ResidencySet, Window};
 pub use scene::{

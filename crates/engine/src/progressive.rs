@@ -31,7 +31,7 @@ use pointlet_io::{PointReader, ReadOptions};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -134,6 +134,10 @@ pub struct LoadProgress {
     /// reused once the GPU had copied them.
     pub staged_new: u64,
     pub staged_reused: u64,
+    /// Time the load threads spent making new upload memory, in all.
+    pub staging: Duration,
+    /// Time the load thread waited for the render thread to take batches (the queue was full).
+    pub queue_waited: Duration,
 }
 
 impl LoadProgress {
@@ -211,6 +215,9 @@ struct Shared {
     recycling: AtomicBool,
     staged_new: AtomicU64,
     staged_reused: AtomicU64,
+    /// Nanoseconds of `LoadProgress::staging` and `LoadProgress::queue_waited`.
+    staging_ns: AtomicU64,
+    queue_wait_ns: AtomicU64,
 }
 
 impl Shared {
@@ -225,7 +232,9 @@ impl Shared {
             self.staged_reused.fetch_add(1, Ordering::Relaxed);
             return reused;
         }
+        let started = Instant::now();
         let new = StagedBatch::new(device, PointEncoding::Full16, points).ok();
+        self.staging_ns.fetch_add(nanos(started), Ordering::Relaxed);
         self.staged_new
             .fetch_add(u64::from(new.is_some()), Ordering::Relaxed);
         new
@@ -358,6 +367,8 @@ impl ProgressiveLoad {
             recycling: AtomicBool::new(true),
             staged_new: AtomicU64::new(0),
             staged_reused: AtomicU64::new(0),
+            staging_ns: AtomicU64::new(0),
+            queue_wait_ns: AtomicU64::new(0),
         });
         let (tx, rx) = sync_channel(config.queue_batches.max(1));
         let job_extras = extras.clone();
@@ -483,6 +494,8 @@ impl ProgressiveLoad {
             state: self.state,
             staged_new: self.shared.staged_new.load(Ordering::Relaxed),
             staged_reused: self.shared.staged_reused.load(Ordering::Relaxed),
+            staging: Duration::from_nanos(self.shared.staging_ns.load(Ordering::Relaxed)),
+            queue_waited: Duration::from_nanos(self.shared.queue_wait_ns.load(Ordering::Relaxed)),
         }
     }
 
@@ -1208,11 +1221,24 @@ fn send(job: &Job, batches: Vec<EncodedPoints>) -> Result<(), Stop> {
             continue;
         }
         job.shared.loaded.fetch_add(m.read, Ordering::Relaxed);
-        job.queue
-            .send(Message::Batch(m))
-            .map_err(|_| Stop::Closed)?;
+        match job.queue.try_send(Message::Batch(m)) {
+            Ok(()) => {}
+            Err(TrySendError::Full(m)) => {
+                let started = Instant::now();
+                job.queue.send(m).map_err(|_| Stop::Closed)?;
+                job.shared
+                    .queue_wait_ns
+                    .fetch_add(nanos(started), Ordering::Relaxed);
+            }
+            Err(TrySendError::Disconnected(_)) => return Err(Stop::Closed),
+        }
     }
     Ok(())
+}
+
+/// Nanoseconds since `started`, for the load's time counters.
+fn nanos(started: Instant) -> u64 {
+    u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
 }
 
 #[cfg(test)]

@@ -147,8 +147,18 @@ struct Untimed {
 }
 
 /// A point file loading into a shuffled buffer and drawn progressively.
+/// What making a scene's GPU side took (`bench` shows it beside the time to the first frame).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OpenTimes {
+    /// Building the passes (pipelines).
+    pub passes: Duration,
+    /// Allocating the shuffled buffer and the draw lists, and marking every slot empty.
+    pub buffers: Duration,
+}
+
 pub struct ProgressiveScene {
     config: ProgressiveConfig,
+    open_times: OpenTimes,
     load: ProgressiveLoad,
     /// The points load once it finished (kept for its progress), while `load` recolours.
     finished: Option<LoadProgress>,
@@ -224,7 +234,10 @@ impl ProgressiveScene {
         // Batches decoded from now on go straight into upload memory.
         load.use_device(&ctx.device);
         config.load.max_slots = load.slots();
+        let started = Instant::now();
         let renderer = ProgressiveRenderer::new(ctx, config.variant, config.page_size)?;
+        let shuffle = ShufflePass::new(ctx)?;
+        let passes = started.elapsed();
         let slots = u32::try_from(load.slots()).map_err(|_| {
             EngineError::Config(format!(
                 "{}: {} slots exceed a shuffled buffer's {}",
@@ -234,12 +247,14 @@ impl ProgressiveScene {
             ))
         })?;
         let meta_bounds = load.bounds();
+        let started = Instant::now();
         let mut cloud = ProgressiveCloud::new(ctx, slots, meta_bounds, config.page_size)?;
+        let buffers = started.elapsed();
         cloud.set_order(load.order())?;
-        let shuffle = ShufflePass::new(ctx)?;
         let budget = FillBudget::new(u64::from(slots), config.target_frame_ms);
         Ok(Self {
             config,
+            open_times: OpenTimes { passes, buffers },
             load,
             finished: None,
             cloud,
@@ -299,6 +314,11 @@ impl ProgressiveScene {
     }
 
     /// GPU bytes of the shuffled buffer.
+    /// What making the GPU side took.
+    pub fn open_times(&self) -> OpenTimes {
+        self.open_times
+    }
+
     pub fn gpu_bytes(&self) -> u64 {
         self.slots() * SLOT_BYTES
     }
