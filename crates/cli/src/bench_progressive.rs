@@ -49,6 +49,8 @@ struct Summary<'a> {
     realtime: bool,
     /// From opening the file to the end of the first frame that showed points.
     first_frame_s: f64,
+    /// Points per second uploaded between the first frame and the end of loading.
+    after_first_points_per_s: f64,
     /// From opening the file until its last point was in the shuffled buffer.
     loaded_s: f64,
     load_points_per_s: f64,
@@ -106,6 +108,8 @@ pub fn run(args: &Args) -> Result<()> {
     let slots = scene.slots().max(1);
     let mut rows: Vec<Row> = Vec::with_capacity(cameras.len());
     let mut first_frame_s = None;
+    // Points on the GPU when the first frame was shown: the rest streamed while drawing.
+    let mut first_frame_points = 0u64;
     let mut loaded_s = None;
     let mut failure = None;
     let flown = Instant::now();
@@ -140,6 +144,7 @@ pub fn run(args: &Args) -> Result<()> {
             // Once: the frame must have reached the screen to count.
             ctx.wait()?;
             first_frame_s = Some(began.elapsed().as_secs_f64());
+            first_frame_points = report.progress.uploaded;
         }
         if loaded_s.is_none() && !loading {
             loaded_s = Some(began.elapsed().as_secs_f64());
@@ -183,6 +188,7 @@ pub fn run(args: &Args) -> Result<()> {
         if first_frame_s.is_none() && report.progress.uploaded > 0 {
             ctx.wait()?;
             first_frame_s = Some(began.elapsed().as_secs_f64());
+            first_frame_points = report.progress.uploaded;
         }
         if loaded_s.is_none() && report.progress.is_finished() {
             loaded_s = Some(began.elapsed().as_secs_f64());
@@ -219,6 +225,14 @@ pub fn run(args: &Args) -> Result<()> {
     let share_drawn = rows.iter().map(|r| r.share_drawn).sum::<f64>() / rows.len().max(1) as f64;
     let first_frame_s = first_frame_s.unwrap_or(f64::NAN);
     let loaded_s = loaded_s.unwrap_or(f64::NAN);
+    // The streaming rate once drawing began (opening and the first batches left out); NaN
+    // where everything was there for the first frame.
+    let streamed = progress.uploaded.saturating_sub(first_frame_points);
+    let after_first_points_per_s = if streamed > 0 && loaded_s > first_frame_s {
+        streamed as f64 / (loaded_s - first_frame_s)
+    } else {
+        f64::NAN
+    };
     println!(
         "{}: {} points ({} in the GPU buffer), {}×{}, {} on {}, target {target_fps} fps",
         file.display(),
@@ -246,6 +260,13 @@ pub fn run(args: &Args) -> Result<()> {
         loaded_s,
         progress.points_per_s() / 1e6,
         progress.mb_per_s()
+    );
+    println!(
+        "after the first frame: {} points in {:.3} s ({:.1} M points/s, {:.1} GB/s of 16-byte points)",
+        streamed,
+        loaded_s - first_frame_s,
+        after_first_points_per_s / 1e6,
+        after_first_points_per_s * 16.0 / 1e9
     );
     println!(
         "converged {converge_s:.3} s ({converge_frames} frames) after the path ended; \
@@ -301,6 +322,7 @@ pub fn run(args: &Args) -> Result<()> {
             target_fps,
             realtime: args.realtime,
             first_frame_s,
+            after_first_points_per_s,
             loaded_s,
             load_points_per_s: progress.points_per_s(),
             load_mb_per_s: progress.mb_per_s(),

@@ -133,6 +133,7 @@ fn bench_of_a_point_file_reports_loading_and_convergence() {
         "fully loaded after",
         "converged",
         "points/s",
+        "after the first frame",
         "opening: passes",
         "GPU buffers",
         "waited",
