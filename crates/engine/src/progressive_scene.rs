@@ -146,7 +146,6 @@ struct Untimed {
     done_ns: Arc<AtomicU64>,
 }
 
-/// A point file loading into a shuffled buffer and drawn progressively.
 /// What making a scene's GPU side took (`bench` shows it beside the time to the first frame).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct OpenTimes {
@@ -156,6 +155,7 @@ pub struct OpenTimes {
     pub buffers: Duration,
 }
 
+/// A point file loading into a shuffled buffer and drawn progressively.
 pub struct ProgressiveScene {
     config: ProgressiveConfig,
     open_times: OpenTimes,
