@@ -6,7 +6,8 @@
 use crate::bench_cmd::{write_series, Args, Flight};
 use crate::progressive_cmd;
 use anyhow::{bail, Context, Result};
-use pointlet_gpu::RenderTarget;
+use pointlet_engine::progressive::LoadProgress;
+use pointlet_gpu::{GpuContext, RenderTarget};
 use pointlet_report::{FrameStats, Series, StageBreakdown};
 use serde::Serialize;
 use std::path::Path;
@@ -83,6 +84,30 @@ struct Summary<'a> {
     frames: &'a [Row],
 }
 
+/// When loading reached the screen and when it ended, in seconds since opening.
+#[derive(Default)]
+struct LoadMarks {
+    /// The first frame that showed points, and the points on the GPU then (the rest streamed
+    /// while drawing).
+    first_frame: Option<(f64, u64)>,
+    loaded_s: Option<f64>,
+}
+
+impl LoadMarks {
+    /// Marks what the frame just drawn with `progress` reached, once each.
+    fn note(&mut self, ctx: &GpuContext, began: Instant, progress: &LoadProgress) -> Result<()> {
+        if self.first_frame.is_none() && progress.uploaded > 0 {
+            // The frame must have reached the screen to count.
+            ctx.wait()?;
+            self.first_frame = Some((began.elapsed().as_secs_f64(), progress.uploaded));
+        }
+        if self.loaded_s.is_none() && progress.is_finished() {
+            self.loaded_s = Some(began.elapsed().as_secs_f64());
+        }
+        Ok(())
+    }
+}
+
 pub fn run(args: &Args) -> Result<()> {
     let file = args.store.as_path();
     let inputs = [args.store.clone()];
@@ -107,10 +132,7 @@ pub fn run(args: &Args) -> Result<()> {
     let settings = args.draw.settings_for(variant, Some(file));
     let slots = scene.slots().max(1);
     let mut rows: Vec<Row> = Vec::with_capacity(cameras.len());
-    let mut first_frame_s = None;
-    // Points on the GPU when the first frame was shown: the rest streamed while drawing.
-    let mut first_frame_points = 0u64;
-    let mut loaded_s = None;
+    let mut marks = LoadMarks::default();
     let mut failure = None;
     let flown = Instant::now();
     let mut last_start = flown;
@@ -140,15 +162,7 @@ pub fn run(args: &Args) -> Result<()> {
             failure = report.failure.clone();
         }
         let loading = !report.progress.is_finished();
-        if first_frame_s.is_none() && report.progress.uploaded > 0 {
-            // Once: the frame must have reached the screen to count.
-            ctx.wait()?;
-            first_frame_s = Some(began.elapsed().as_secs_f64());
-            first_frame_points = report.progress.uploaded;
-        }
-        if loaded_s.is_none() && !loading {
-            loaded_s = Some(began.elapsed().as_secs_f64());
-        }
+        marks.note(&ctx, began, &report.progress)?;
         rows.push(Row {
             frame: k,
             time_s: (start - began).as_secs_f64(),
@@ -185,14 +199,7 @@ pub fn run(args: &Args) -> Result<()> {
         if let Some(f) = report.failure {
             bail!("{f}");
         }
-        if first_frame_s.is_none() && report.progress.uploaded > 0 {
-            ctx.wait()?;
-            first_frame_s = Some(began.elapsed().as_secs_f64());
-            first_frame_points = report.progress.uploaded;
-        }
-        if loaded_s.is_none() && report.progress.is_finished() {
-            loaded_s = Some(began.elapsed().as_secs_f64());
-        }
+        marks.note(&ctx, began, &report.progress)?;
         if report.converged {
             break;
         }
@@ -223,8 +230,8 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let stage_table = stages.summary();
     let share_drawn = rows.iter().map(|r| r.share_drawn).sum::<f64>() / rows.len().max(1) as f64;
-    let first_frame_s = first_frame_s.unwrap_or(f64::NAN);
-    let loaded_s = loaded_s.unwrap_or(f64::NAN);
+    let (first_frame_s, first_frame_points) = marks.first_frame.unwrap_or((f64::NAN, 0));
+    let loaded_s = marks.loaded_s.unwrap_or(f64::NAN);
     // The streaming rate once drawing began (opening and the first batches left out); NaN
     // where everything was there for the first frame.
     let streamed = progress.uploaded.saturating_sub(first_frame_points);
