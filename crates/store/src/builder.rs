@@ -972,11 +972,12 @@ pub(crate) fn report(progress: &Progress, phase: BuildPhase, done: u64, total: u
 }
 
 /// Records a group of the out-of-core build's last phase holds at most: two groups (one
-/// emitted while the next is read and sorted), their pairs, the sort's second array, and the
-/// mapped pages of the group being written. A mapping also keeps up to two partly written
-/// 2 MiB pages of each stream (a byte stream's page spans 2 M points, several groups).
+/// emitted while the next is read and sorted), their pairs, the sort's second array, the keys
+/// read with the next, and the mapped pages of the group being written. A mapping also keeps up
+/// to two partly written 2 MiB pages of each stream (a byte stream's page spans 2 M points,
+/// several groups).
 fn group_capacity(budget: u64, mapped: bool, rl: &RecordLayout) -> usize {
-    let per_point = (3 * rl.len + 3 * std::mem::size_of::<Pair>()) as u64;
+    let per_point = (3 * rl.len + 3 * std::mem::size_of::<Pair>() + runs::KEY_BYTES) as u64;
     let pages = if mapped {
         2 * pio::HUGE as u64 * rl.fields.len() as u64
     } else {

@@ -82,10 +82,15 @@ pub(crate) struct RunFile {
     pub count: u64,
     /// Bytes per record.
     pub rb: usize,
-    /// Buckets of the run's [`Bucketing`]: after the records, the file holds where each starts
-    /// (in records, `u64` little-endian) and the end.
+    /// Buckets of the run's [`Bucketing`]: after the records and their keys, the file holds
+    /// where each starts (in records, `u64` little-endian) and the end.
     pub buckets: usize,
 }
+
+/// Bytes of a record's key in a run file (after all the records, in the same order): the groups
+/// read keys back instead of computing them again (2.8 of the 11 core-s out of core spent
+/// beyond an in-memory build, GPU machine, docs/BENCHMARKS.md).
+pub(crate) const KEY_BYTES: usize = 8;
 
 impl RunFile {
     /// Where buckets `range.start..=range.end` start (the last: where bucket `range.end - 1`
@@ -99,13 +104,18 @@ impl RunFile {
         }
         let file = self.open()?;
         let mut raw = vec![0u8; (range.len() + 1) * 8];
-        let at = self.count * self.rb as u64 + range.start as u64 * 8;
+        let at = self.keys_at() + self.count * KEY_BYTES as u64 + range.start as u64 * 8;
         crate::pio::read_exact_at(&file, &mut raw, at)
             .map_err(|e| StoreError::io(&self.path, "reading a temporary run file", e))?;
         Ok(raw
             .chunks_exact(8)
             .map(|b| u64::from_le_bytes(crate::format::array(b)))
             .collect())
+    }
+
+    /// Where the records' keys start in the file.
+    fn keys_at(&self) -> u64 {
+        self.count * self.rb as u64
     }
 
     /// The run's file for positioned reads, writable so that pages read can be given back.
@@ -124,7 +134,7 @@ impl RunFile {
     }
 }
 
-/// A run's bucket starts as the bytes that follow its records.
+/// A run's bucket starts as the bytes that follow its records' keys.
 fn starts_bytes(starts: impl Iterator<Item = u64>) -> Vec<u8> {
     starts.flat_map(u64::to_le_bytes).collect()
 }
@@ -230,6 +240,7 @@ fn gather_into_map(
     rb: usize,
     release_bytes: usize,
 ) -> bool {
+    let keys_at = (order.len() * rb) as u64;
     use std::sync::atomic::{AtomicBool, AtomicUsize};
     let piece = gather_piece(rb);
     let tasks = order.len().div_ceil(piece);
@@ -262,10 +273,19 @@ fn gather_into_map(
             continue;
         }
         let part = &order[t * piece..((t + 1) * piece).min(order.len())];
-        // SAFETY: task t's bytes, which no other task covers.
-        match unsafe { map.slice((t * piece * rb) as u64, part.len() * rb) } {
-            Some(out) => copy_records(records, part, rb, out),
-            None => outside.store(true, Ordering::Relaxed),
+        // SAFETY: task t's records and keys, which no other task covers.
+        let out = unsafe { map.slice((t * piece * rb) as u64, part.len() * rb) };
+        let keys_from = keys_at + (t * piece * KEY_BYTES) as u64;
+        // SAFETY: as above, in the keys after the records.
+        let keys = unsafe { map.slice(keys_from, part.len() * KEY_BYTES) };
+        match (out, keys) {
+            (Some(out), Some(keys)) => {
+                copy_records(records, part, rb, out);
+                for (k, p) in keys.chunks_exact_mut(KEY_BYTES).zip(part) {
+                    k.copy_from_slice(&{ p.0 }.to_le_bytes());
+                }
+            }
+            _ => outside.store(true, Ordering::Relaxed),
         }
         done[t].store(true, Ordering::Release);
         let mut f = crate::emit::lock(&frontier);
@@ -273,9 +293,11 @@ fn gather_into_map(
             f.0 += 1;
         }
         first.store(f.0, Ordering::Release);
-        let written = (f.0 * piece).min(order.len()) as u64 * rb as u64;
+        let done_records = (f.0 * piece).min(order.len()) as u64;
+        let written = done_records * rb as u64;
         if written >= f.1 + release_bytes as u64 || f.0 == tasks {
             map.release(0, written);
+            map.release(keys_at, done_records * KEY_BYTES as u64);
             f.1 = written;
         }
     };
@@ -307,14 +329,16 @@ pub(crate) fn write_run(
     run.buckets = starts.len() - 1;
     let tail = starts_bytes(starts.iter().map(|&s| s as u64));
     let records_len = order.len() * rb;
+    let keys_len = order.len() * KEY_BYTES;
     let failed = |e| StoreError::io(&run.path, "writing a temporary run file", e);
-    if let Some(map) = maps.map(&file, (records_len + tail.len()) as u64, &run.path)? {
+    let file_len = (records_len + keys_len + tail.len()) as u64;
+    if let Some(map) = maps.map(&file, file_len, &run.path)? {
         let outside = || StoreError::build(&run.path, "internal error: a run outside its file");
         if !gather_into_map(&map, records, order, rb, chunk_bytes) {
             return Err(outside());
         }
-        // SAFETY: the bytes after the records, which no other slice covers.
-        unsafe { map.slice(records_len as u64, tail.len()) }
+        // SAFETY: the bytes after the records and keys, which no other slice covers.
+        unsafe { map.slice((records_len + keys_len) as u64, tail.len()) }
             .ok_or_else(outside)?
             .copy_from_slice(&tail);
         return Ok(run);
@@ -341,6 +365,11 @@ pub(crate) fn write_run(
         );
         written.map_err(failed)?;
         std::mem::swap(&mut ready, &mut next);
+    }
+    for part in order.chunks(chunk_points) {
+        ready.clear();
+        ready.extend(part.iter().flat_map(|p| { p.0 }.to_le_bytes()));
+        file.write_all(&ready).map_err(failed)?;
     }
     file.write_all(&tail).map_err(failed)?;
     Ok(run)
@@ -370,13 +399,27 @@ pub(crate) fn read_records(run: &RunFile, from: u64, out: &mut [u8]) -> Result<(
         .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))
 }
 
-/// Gives back the pages of records `from..to` of a run, which were read and are not read
-/// again: freeing them as the groups go, on the loading threads, spares the seconds that
-/// removing gigabytes of runs at the end would take.
+/// Reads the keys of records `from..from + out.len()` of a run into `out`.
+pub(crate) fn read_keys(run: &RunFile, from: u64, out: &mut [u64]) -> Result<(), StoreError> {
+    let file = run.open()?;
+    let mut raw = vec![0u8; out.len() * KEY_BYTES];
+    crate::pio::read_exact_at(&file, &mut raw, run.keys_at() + from * KEY_BYTES as u64)
+        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
+    for (k, b) in out.iter_mut().zip(raw.chunks_exact(KEY_BYTES)) {
+        *k = u64::from_le_bytes(crate::format::array(b));
+    }
+    Ok(())
+}
+
+/// Gives back the pages of records `from..to` of a run and of their keys, which were read and
+/// are not read again: freeing them as the groups go, on the loading threads, spares the
+/// seconds that removing gigabytes of runs at the end would take.
 pub(crate) fn release_records(run: &RunFile, from: u64, to: u64) -> Result<(), StoreError> {
     let file = run.open()?;
     let rb = run.rb as u64;
     crate::pio::release(&file, from * rb, (to - from) * rb);
+    let kb = KEY_BYTES as u64;
+    crate::pio::release(&file, run.keys_at() + from * kb, (to - from) * kb);
     Ok(())
 }
 
@@ -554,11 +597,6 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
     let rb = group.first().map_or(1, |r| r.rb);
     let (mut out, file) = create_run(path, rb)?;
     let mut w = std::io::BufWriter::with_capacity(buf_bytes / 2, file);
-    let per_run = (buf_bytes / 2 / group.len() / rb).max(1);
-    let mut readers = group
-        .iter()
-        .map(|run| RunReader::new(run, per_run))
-        .collect::<Result<Vec<_>, _>>()?;
     let buckets = group.first().map_or(0, |r| r.buckets);
     let runs_starts = group
         .iter()
@@ -566,16 +604,30 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
         .collect::<Result<Vec<_>, _>>()?;
     let mut starts = Vec::with_capacity(buckets + 1);
     let mut at = 0u64;
-    for b in 0..buckets {
-        starts.push(at);
-        for (run_starts, reader) in runs_starts.iter().zip(&mut readers) {
-            let mut left = run_starts[b + 1] - run_starts[b];
-            at += left;
-            while left > 0 {
-                let records = reader.take(left)?;
-                w.write_all(records)
-                    .map_err(|e| StoreError::io(&out.path, "writing a temporary run file", e))?;
-                left -= (records.len() / rb) as u64;
+    // The records, then their keys in the same order.
+    for keys in [false, true] {
+        let size = if keys { KEY_BYTES } else { rb };
+        let per_run = (buf_bytes / 2 / group.len() / size).max(1);
+        let mut readers = group
+            .iter()
+            .map(|run| RunReader::new(run, per_run, keys))
+            .collect::<Result<Vec<_>, _>>()?;
+        for b in 0..buckets {
+            if !keys {
+                starts.push(at);
+            }
+            for (run_starts, reader) in runs_starts.iter().zip(&mut readers) {
+                let mut left = run_starts[b + 1] - run_starts[b];
+                if !keys {
+                    at += left;
+                }
+                while left > 0 {
+                    let items = reader.take(left)?;
+                    w.write_all(items).map_err(|e| {
+                        StoreError::io(&out.path, "writing a temporary run file", e)
+                    })?;
+                    left -= (items.len() / size) as u64;
+                }
             }
         }
     }
@@ -588,7 +640,8 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
     Ok(out)
 }
 
-/// Reads a run front to back through a buffer, giving its pages back as it goes.
+/// Reads a run's records (or their keys) front to back through a buffer, giving its pages back
+/// as it goes.
 struct RunReader<'a> {
     run: &'a RunFile,
     file: File,
@@ -597,26 +650,36 @@ struct RunReader<'a> {
     end: usize,
     /// Next record to load from the file.
     next: u64,
+    /// Where the records (or keys) start in the file, and the bytes of one.
+    base: u64,
+    size: usize,
 }
 
 impl<'a> RunReader<'a> {
-    fn new(run: &'a RunFile, records: usize) -> Result<Self, StoreError> {
+    fn new(run: &'a RunFile, records: usize, keys: bool) -> Result<Self, StoreError> {
         let file = run.open()?;
         let records = (records as u64).min(run.count) as usize;
+        let (base, size) = if keys {
+            (run.keys_at(), KEY_BYTES)
+        } else {
+            (0, run.rb)
+        };
         Ok(RunReader {
             run,
             file,
-            buf: vec![0; records * run.rb],
+            buf: vec![0; records * size],
             pos: 0,
             end: 0,
             next: 0,
+            base,
+            size,
         })
     }
 
-    /// The next records, at most `max` (at least one while the run has any).
+    /// The next records (or keys), at most `max` (at least one while the run has any).
     fn take(&mut self, max: u64) -> Result<&[u8], StoreError> {
         if self.pos == self.end {
-            let rb = self.run.rb;
+            let rb = self.size;
             let n = ((self.buf.len() / rb) as u64).min(self.run.count - self.next);
             if n == 0 {
                 return Err(StoreError::build(
@@ -625,15 +688,15 @@ impl<'a> RunReader<'a> {
                 ));
             }
             let bytes = n as usize * rb;
-            let at = self.next * rb as u64;
+            let at = self.base + self.next * rb as u64;
             crate::pio::read_exact_at(&self.file, &mut self.buf[..bytes], at)
                 .map_err(|e| StoreError::io(&self.run.path, "reading a temporary run file", e))?;
             crate::pio::release(&self.file, at, bytes as u64);
             (self.pos, self.end, self.next) = (0, bytes, self.next + n);
         }
-        let n = ((self.end - self.pos) / self.run.rb).min(max as usize);
+        let n = ((self.end - self.pos) / self.size).min(max as usize);
         let from = self.pos;
-        self.pos += n * self.run.rb;
+        self.pos += n * self.size;
         Ok(&self.buf[from..self.pos])
     }
 }
@@ -688,14 +751,22 @@ mod tests {
             &maps,
         )
         .unwrap();
-        assert_eq!(std::fs::read(&small.path).unwrap().len(), 9 * rb + 16);
+        assert_eq!(
+            std::fs::read(&small.path).unwrap().len(),
+            9 * (rb + KEY_BYTES) + 16
+        );
         assert_eq!(maps.0.load(Ordering::Relaxed), RunMaps::UNKNOWN);
         let (first, _f) = write(&maps);
         let (second, _s) = write(&maps);
         // Through the mapping whatever pages the kernel gives (as once the first run found
         // 2 MiB ones), wherever the file system reserves space.
         let (mapped, _m) = write(&RunMaps(RunMaps::MAPPED.into()));
-        assert_eq!(written.len(), n as usize * rb + 8 * starts.len());
+        assert_eq!(
+            written.len(),
+            n as usize * (rb + KEY_BYTES) + 8 * starts.len()
+        );
+        let keys: Vec<u8> = pairs.iter().flat_map(|p| { p.0 }.to_le_bytes()).collect();
+        assert_eq!(written[n as usize * rb..][..keys.len()], keys);
         assert!(
             first == written && second == written && mapped == written,
             "a mapped run differs"
@@ -722,7 +793,10 @@ mod tests {
         };
         let written = write(RunMaps(RunMaps::WRITTEN.into()));
         let mapped = write(RunMaps(RunMaps::MAPPED.into()));
-        assert_eq!(written.len(), n as usize * rb + 8 * starts.len());
+        assert_eq!(
+            written.len(),
+            n as usize * (rb + KEY_BYTES) + 8 * starts.len()
+        );
         assert!(mapped == written, "a mapped run differs");
     }
 
@@ -753,6 +827,10 @@ mod tests {
             [2, 2],
         ];
         assert_eq!(records, want.concat());
+        // Keys (here a record's second byte) joined in the same order.
+        let mut keys = vec![0u64; 9];
+        read_keys(&joined, 0, &mut keys).unwrap();
+        assert_eq!(keys, want.map(|r| u64::from(r[1])));
         drop((runs, joined));
         assert_eq!(
             std::fs::read_dir(dir.path()).unwrap().count(),

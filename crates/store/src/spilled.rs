@@ -135,6 +135,8 @@ pub(crate) struct GroupSorter<'e, 'a> {
     pending: Option<Group>,
     spare: Group,
     scratch: Vec<Pair>,
+    /// The keys of the records a group reads (after its carried ones), in the same order.
+    keys: Vec<u64>,
     /// Records, in sorted order, of the pointlet the last group left unfinished.
     carry: Vec<u8>,
     /// Sorted position of the next group's first record (its carried records included).
@@ -150,6 +152,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
             pending: None,
             spare: Group::default(),
             scratch: Vec::new(),
+            keys: Vec::new(),
             carry: Vec::new(),
             next_first: 0,
         }
@@ -222,6 +225,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         let mut group = std::mem::take(&mut self.spare);
         let pending = self.pending.take();
         let mut scratch = std::mem::take(&mut self.scratch);
+        let mut keys = std::mem::take(&mut self.keys);
         let mut carry = std::mem::take(&mut self.carry);
         let first = self.next_first;
         let (k, n) = (self.em.k(), self.em.points());
@@ -229,8 +233,8 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         let (emitted, loaded) = rayon::join(
             || pending.as_ref().map_or(Ok(()), |g| this.emit(g)),
             || {
-                this.load(&mut group, &carry, &load.pieces)?;
-                let buckets = this.key(&mut group, carry.len() / this.rb, load);
+                this.load(&mut group, &mut keys, &carry, &load.pieces)?;
+                let buckets = this.key(&mut group, &keys, carry.len() / this.rb, load);
                 // One second array for every bucket: a bucket may hold most of the group.
                 Pair::resize_for_overwrite(&mut scratch, group.len, this.full_group());
                 sort::sort_buckets_in(&mut group.pairs, &mut scratch, &buckets);
@@ -248,6 +252,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
             },
         );
         self.scratch = scratch;
+        self.keys = keys;
         self.carry = carry;
         self.spare = pending.unwrap_or_default();
         self.next_first = loaded?;
@@ -296,11 +301,23 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         self.set.capacity.min(self.em.points() as usize)
     }
 
-    /// Fills `g` with the carried records, then those of `pieces`, read on every core.
-    fn load(&self, g: &mut Group, carry: &[u8], pieces: &[Piece<'_>]) -> Result<(), StoreError> {
+    /// Fills `g` with the carried records, then those of `pieces`, and `keys` with the keys of
+    /// the latter, read on every core.
+    fn load(
+        &self,
+        g: &mut Group,
+        keys: &mut Vec<u64>,
+        carry: &[u8],
+        pieces: &[Piece<'_>],
+    ) -> Result<(), StoreError> {
         let rb = self.rb;
         let carried = carry.len() / rb;
-        g.len = carried + pieces.iter().map(Piece::len).sum::<usize>();
+        let read = pieces.iter().map(Piece::len).sum::<usize>();
+        g.len = carried + read;
+        if keys.len() < read {
+            // Zeroed pages from the allocator, like the records below.
+            *keys = vec![0; read.max(self.full_group())];
+        }
         if g.records.len() < g.len * rb {
             // Zeroed pages from the allocator: resizing would write them all on this thread.
             g.records = vec![0; g.len.max(self.full_group()) * rb];
@@ -308,22 +325,27 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         g.records[..carry.len()].copy_from_slice(carry);
         let mut rest = &mut g.records[carry.len()..g.len * rb];
+        let mut rest_keys = &mut keys[..read];
         let per_read = (READ_BYTES / rb).max(1) as u64;
         let mut reads = Vec::new();
         for p in pieces {
             let mut from = p.from;
             while from < p.to {
                 let to = (from + per_read).min(p.to);
-                let (here, after) =
-                    std::mem::take(&mut rest).split_at_mut((to - from) as usize * rb);
-                reads.push((p.run, from, here));
-                rest = after;
+                let n = (to - from) as usize;
+                let (here, after) = std::mem::take(&mut rest).split_at_mut(n * rb);
+                let (here_keys, after_keys) = std::mem::take(&mut rest_keys).split_at_mut(n);
+                reads.push((p.run, from, here, here_keys));
+                (rest, rest_keys) = (after, after_keys);
                 from = to;
             }
         }
         reads
             .into_par_iter()
-            .try_for_each(|(run, from, out)| runs::read_records(run, from, out))?;
+            .try_for_each(|(run, from, out, out_keys)| {
+                runs::read_records(run, from, out)?;
+                runs::read_keys(run, from, out_keys)
+            })?;
         // Once all are read, a piece at a time: giving pages back takes the file's lock, which
         // reads of the same run would otherwise wait for.
         pieces
@@ -331,9 +353,10 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
             .try_for_each(|p| runs::release_records(p.run, p.from, p.to))
     }
 
-    /// The pairs (key, place) of `g`'s records, the `carried` first, then bucket by bucket as
-    /// `load` lays them out; where each bucket's pairs start.
-    fn key(&self, g: &mut Group, carried: usize, load: &Load<'_>) -> sort::Buckets {
+    /// The pairs (key, place) of `g`'s records, the `carried` first (keyed here), then bucket
+    /// by bucket as `load` lays them out (their `keys` as read); where each bucket's pairs
+    /// start.
+    fn key(&self, g: &mut Group, keys: &[u64], carried: usize, load: &Load<'_>) -> sort::Buckets {
         const TASK: usize = 1 << 14;
         let (rb, q, grid) = (self.rb, self.set.quantization, self.set.grid);
         // Every pair is written below.
@@ -369,9 +392,16 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         }
         let records = &g.records;
         tasks.into_par_iter().for_each(|(pairs, first)| {
-            let recs = &records[first * rb..(first + pairs.len()) * rb];
-            // The group's bounds are not needed: the grid is the build's.
-            key_rows(recs, q, grid, rb, first, pairs);
+            if first >= carried {
+                let read = &keys[first - carried..first - carried + pairs.len()];
+                for (j, (p, &k)) in pairs.iter_mut().zip(read).enumerate() {
+                    *p = Pair(k, (first + j) as u32);
+                }
+            } else {
+                let recs = &records[first * rb..(first + pairs.len()) * rb];
+                // The group's bounds are not needed: the grid is the build's.
+                key_rows(recs, q, grid, rb, first, pairs);
+            }
         });
         starts.dedup();
         sort::Buckets { starts }
@@ -387,11 +417,12 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
     ) -> Result<Vec<RunFile>, StoreError> {
         self.flush()?;
         let mut g = std::mem::take(&mut self.spare);
+        let mut keys = std::mem::take(&mut self.keys);
         let mut out = Vec::new();
         for chunk in chunks(runs, bucket, self.set.capacity)? {
             let load = Load::one_bucket(chunk);
-            self.load(&mut g, &[], &load.pieces)?;
-            self.key(&mut g, 0, &load);
+            self.load(&mut g, &mut keys, &[], &load.pieces)?;
+            self.key(&mut g, &keys, 0, &load);
             let starts = sort::bucket_by(&mut g.pairs, &mut self.scratch, finer.count, |k| {
                 finer.of(k)
             });
@@ -407,6 +438,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
             )?);
         }
         self.spare = g;
+        self.keys = keys;
         Ok(out)
     }
 }
