@@ -208,10 +208,7 @@ fn gather_piece(rb: usize) -> usize {
 
 /// Copies the records of `pairs` (by their indices into `records`) into `out`, one after another.
 fn copy_records(records: &[u8], pairs: &[Pair], rb: usize, out: &mut [u8]) {
-    for (e, &Pair(_, idx)) in out.chunks_exact_mut(rb).zip(pairs) {
-        let at = idx as usize * rb;
-        e.copy_from_slice(&records[at..at + rb]);
-    }
+    crate::emit::copy_records(records, rb, pairs, |p| p.1, out);
 }
 
 /// Copies the records of `pairs` (by their indices into `records`) into `out`, on every core.
