@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Prepared in session 43, NOT RUN (no device could be started this session: 12 starts failed).
+# Prepared in session 43 (no device could be started then); run in session 44 as the first call of
+# that session, on one H100 host (16 cores), together with ../../../issue15/session43/1-h100-keys/call.sh 2
+# (order: this with 200, keys, this with 1g); outputs beside this script.
 # Where a store read as a point file spends its time before the first frame (1 G lean store:
 # frame 0 began 0.34 s after opening in session 42, the 200 M store 0.07–0.08 s, the 50 M LAZ
 # 0.02 s: it grows with the GPU buffer) and what bounds loading after it. `bench` itself now

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Prepared in session 43, NOT RUN (no device could be started this session: 12 starts failed).
+# Prepared in session 43 (no device could be started then); run in session 44 with ROUNDS=2, on
+# one H100 host, between the two parts of ../../../issue11/session43/1-h100-open-trace/call.sh; outputs
+# beside this script. The diff was committed after (739864c).
 # Run files carrying their records' keys, so that the groups read the keys back instead of
 # computing them again (`keys-in-runs-rebased.diff` beside this script: session 42's
 # session42/4-h100-keys/keys-in-runs.diff on c779464), against the same commit without it:
