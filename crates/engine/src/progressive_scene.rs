@@ -313,12 +313,12 @@ impl ProgressiveScene {
         u64::from(self.cloud.points())
     }
 
-    /// GPU bytes of the shuffled buffer.
     /// What making the GPU side took.
     pub fn open_times(&self) -> OpenTimes {
         self.open_times
     }
 
+    /// GPU bytes of the shuffled buffer.
     pub fn gpu_bytes(&self) -> u64 {
         self.slots() * SLOT_BYTES
     }

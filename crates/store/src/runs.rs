@@ -389,20 +389,21 @@ pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
     })
 }
 
-/// Reads records `from..from + out.len() / run.rb` of a run into `out`.
-pub(crate) fn read_records(run: &RunFile, from: u64, out: &mut [u8]) -> Result<(), StoreError> {
+/// Reads records `from..from + out.len() / run.rb` of a run into `out`, and their keys into
+/// `keys` (as many), through one opening of the file.
+pub(crate) fn read_records(
+    run: &RunFile,
+    from: u64,
+    out: &mut [u8],
+    keys: &mut [u64],
+) -> Result<(), StoreError> {
     let file = run.open()?;
-    crate::pio::read_exact_at(&file, out, from * run.rb as u64)
-        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))
-}
-
-/// Reads the keys of records `from..from + out.len()` of a run into `out`.
-pub(crate) fn read_keys(run: &RunFile, from: u64, out: &mut [u64]) -> Result<(), StoreError> {
-    let file = run.open()?;
-    let mut raw = vec![0u8; out.len() * KEY_BYTES];
+    let failed = |e| StoreError::io(&run.path, "reading a temporary run file", e);
+    crate::pio::read_exact_at(&file, out, from * run.rb as u64).map_err(failed)?;
+    let mut raw = vec![0u8; keys.len() * KEY_BYTES];
     crate::pio::read_exact_at(&file, &mut raw, run.keys_at() + from * KEY_BYTES as u64)
-        .map_err(|e| StoreError::io(&run.path, "reading a temporary run file", e))?;
-    for (k, b) in out.iter_mut().zip(raw.chunks_exact(KEY_BYTES)) {
+        .map_err(failed)?;
+    for (k, b) in keys.iter_mut().zip(raw.chunks_exact(KEY_BYTES)) {
         *k = u64::from_le_bytes(crate::format::array(b));
     }
     Ok(())
@@ -599,8 +600,10 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
         .iter()
         .map(|r| r.starts(0..buckets))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut starts = Vec::with_capacity(buckets + 1);
-    let mut at = 0u64;
+    // A bucket of the joined run starts where it starts in every run, added up.
+    let starts: Vec<u64> = (0..=buckets)
+        .map(|b| runs_starts.iter().map(|s| s[b]).sum())
+        .collect();
     // The records, then their keys in the same order.
     for keys in [false, true] {
         let size = if keys { KEY_BYTES } else { rb };
@@ -610,14 +613,8 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
             .map(|run| RunReader::new(run, per_run, keys))
             .collect::<Result<Vec<_>, _>>()?;
         for b in 0..buckets {
-            if !keys {
-                starts.push(at);
-            }
             for (run_starts, reader) in runs_starts.iter().zip(&mut readers) {
                 let mut left = run_starts[b + 1] - run_starts[b];
-                if !keys {
-                    at += left;
-                }
                 while left > 0 {
                     let items = reader.take(left)?;
                     w.write_all(items).map_err(|e| {
@@ -628,11 +625,10 @@ fn join(group: &[RunFile], path: PathBuf, buf_bytes: usize) -> Result<RunFile, S
             }
         }
     }
-    starts.push(at);
-    w.write_all(&starts_bytes(starts.into_iter()))
+    w.write_all(&starts_bytes(starts.iter().copied()))
         .and_then(|()| w.flush())
         .map_err(|e| StoreError::io(&out.path, "writing a temporary run file", e))?;
-    out.count = at;
+    out.count = starts[buckets];
     out.buckets = buckets;
     Ok(out)
 }
@@ -768,10 +764,11 @@ mod tests {
             first == written && second == written && mapped == written,
             "a mapped run differs"
         );
-        let mut back = vec![0u8; rb];
-        read_records(&_s, 5, &mut back).unwrap();
+        let (mut back, mut key) = (vec![0u8; rb], [0u64]);
+        read_records(&_s, 5, &mut back, &mut key).unwrap();
         let i = pairs[5].1 as usize;
         assert_eq!(back, records[i * rb..(i + 1) * rb]);
+        assert_eq!(key, [pairs[5].0]);
     }
 
     #[test]
@@ -810,8 +807,8 @@ mod tests {
         assert_eq!((joined.count, joined.buckets), (9, 3));
         assert_eq!(joined.starts(0..3).unwrap(), [0, 4, 7, 9]);
         assert_eq!(joined.span(1..3).unwrap(), (4, 9));
-        let mut records = vec![0u8; 18];
-        read_records(&joined, 0, &mut records).unwrap();
+        let (mut records, mut keys) = (vec![0u8; 18], vec![0u64; 9]);
+        read_records(&joined, 0, &mut records, &mut keys).unwrap();
         let want = [
             [0, 0],
             [0, 3],
@@ -825,8 +822,6 @@ mod tests {
         ];
         assert_eq!(records, want.concat());
         // Keys (here a record's second byte) joined in the same order.
-        let mut keys = vec![0u64; 9];
-        read_keys(&joined, 0, &mut keys).unwrap();
         assert_eq!(keys, want.map(|r| u64::from(r[1])));
         drop((runs, joined));
         assert_eq!(

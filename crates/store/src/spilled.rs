@@ -343,8 +343,7 @@ impl<'e, 'a> GroupSorter<'e, 'a> {
         reads
             .into_par_iter()
             .try_for_each(|(run, from, out, out_keys)| {
-                runs::read_records(run, from, out)?;
-                runs::read_keys(run, from, out_keys)
+                runs::read_records(run, from, out, out_keys)
             })?;
         // Once all are read, a piece at a time: giving pages back takes the file's lock, which
         // reads of the same run would otherwise wait for.
