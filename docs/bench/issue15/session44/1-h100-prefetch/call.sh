@@ -12,7 +12,7 @@
 set -uo pipefail
 mkdir -p $OUT/pf; exec > >(tee "$OUT/pf/log.txt") 2>&1
 X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }
-V="base pf32"
+V="base pf32"; ROUNDS=${1:-2}
 for v in $V; do X .dev/pointlet-$v.xz > /tmp/p-$v && chmod +x /tmp/p-$v; done
 [ -x /usr/bin/time ] || dpkg -x .dev/time_*.deb /
 W=/tmp/w; R=/tmp/res; mkdir -p $W $R; SECONDS=0
@@ -23,7 +23,7 @@ L=$W/g.las
 /tmp/p-base generate --points 200M -o $L 2>&1 | tail -1
 sync; sleep 1; cat $L > /dev/null
 M="convert $L -o $W/s.pointlet"
-for r in 1 2; do for v in $V; do
+for r in $(seq $ROUNDS); do for v in $V; do
   C mem-$v-$r /tmp/p-$v $M --ram-budget 24GiB
   C ooc-$v-$r /tmp/p-$v $M --ram-budget 1GiB --tmp $W
 done; done
@@ -31,7 +31,7 @@ echo "at $SECONDS s"
 rm -f $L $W/ref.pointlet; /tmp/p-base generate --points 200M -o $W/g.laz 2>&1 | tail -1
 sync; cat $W/g.laz > /dev/null
 echo "at $SECONDS s"
-for r in 1 2; do for v in $V; do
+for r in $(seq $ROUNDS); do for v in $V; do
   C laz-read-$v-$r /tmp/p-$v bench-read $W/g.laz
   C laz-$v-$r /tmp/p-$v convert $W/g.laz -o $W/s.pointlet --ram-budget 24GiB
 done; done
