@@ -291,9 +291,11 @@ pub fn run(args: &Args) -> Result<()> {
     .context("measuring the upload path")?;
     let open = scene.open_times();
     println!(
-        "opening: passes {:.1} ms, GPU buffers {:.1} ms ({})",
+        "opening: passes {:.1} ms, GPU buffers {:.1} ms ({} of {} chunks; {} in all)",
         open.passes.as_secs_f64() * 1e3,
         open.buffers.as_secs_f64() * 1e3,
+        open.chunks_made,
+        open.chunks,
         pointlet_core::size::format_bytes(scene.gpu_bytes())
     );
     println!(

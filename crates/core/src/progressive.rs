@@ -16,6 +16,10 @@ pub enum ShuffleError {
     TooManySlots { n: u64 },
     #[error("groups of {group} points cannot be interleaved: the size must be a power of two")]
     GroupSize { group: u64 },
+    #[error("{slots} slots cannot keep a point of each of {groups} groups")]
+    TooFewSlots { slots: u64, groups: u64 },
+    #[error("a chunk of {chunk_slots} slots cannot hold a group's {rows} points")]
+    ChunkTooSmall { chunk_slots: u64, rows: u64 },
 }
 
 /// The permutation of a buffer of `n` slots: slots `0..P` are permuted by applying eq. 1
@@ -73,22 +77,23 @@ impl ShufflePermutation {
     }
 }
 
-/// The slots of a file whose points come in groups of `2^shift`, each group already in random
-/// order (a store's pointlets, shuffled when the store was built): point j of every group
-/// comes before point j + 1 of any (rows of one point per group), so every run of whole rows
-/// holds the first points of every group loaded so far, a stratified uniform subsample. Within
-/// a row, blocks of up to 64 neighbouring groups are permuted (eq. 1–2 over the blocks), so
-/// that a prefix ending inside a row still spreads over the whole file, while a batch of whole
-/// groups lands in runs of neighbouring slots (a block each) instead of all over the buffer.
-/// The last group may be short: rows past its size skip it, so `n` points fill exactly `n`
-/// slots; columns past the last whole block of the shorter rows stay in place.
+/// The slots of one chunk of groups whose points are each in random order already (a store's
+/// pointlets, shuffled when the store was built), `rows` points kept of each: point j of every
+/// group comes before point j + 1 of any (rows of one point per group), so every run of whole
+/// rows holds the first points of every group loaded so far, a stratified uniform subsample.
+/// Within a row, blocks of up to 64 neighbouring groups are permuted (eq. 1–2 over the blocks),
+/// so that a prefix ending inside a row still spreads over the whole chunk, while a batch of
+/// whole groups lands in runs of neighbouring slots (a block each) instead of all over the
+/// buffer. The last group may keep fewer rows: rows past them skip it, so the slots are
+/// exactly the points kept; columns past the last whole block of the shorter rows stay in
+/// place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GroupInterleave {
+    /// Slots: the points kept.
     n: u64,
-    shift: u32,
-    /// Groups (the last one may be short).
+    rows: u64,
     groups: u64,
-    /// Rows that include the last group: its size.
+    /// Rows that include the last group: the rows it keeps.
     full_rows: u64,
     /// log2 of the groups in a block, and the permutation of the whole blocks of a row.
     block_shift: u32,
@@ -100,29 +105,162 @@ const MAX_BLOCK: u64 = 64;
 const MIN_BLOCKS: u64 = 1024;
 
 impl GroupInterleave {
-    /// `n` points in groups of `group` (a power of two) points.
-    pub fn new(n: u64, group: u64) -> Result<Self, ShuffleError> {
+    /// `groups` groups of `rows` points kept, the last one `last_rows` (at most `rows`).
+    pub fn new(groups: u64, rows: u64, last_rows: u64) -> Result<Self, ShuffleError> {
+        let n = groups.saturating_sub(1) * rows + last_rows.min(rows);
         if n > MAX_SLOTS {
             return Err(ShuffleError::TooManySlots { n });
         }
-        if !group.is_power_of_two() {
-            return Err(ShuffleError::GroupSize { group });
-        }
-        let groups = n.div_ceil(group);
-        // Blocks as large as keep a thousand of them in a row: small stores permute groups.
+        // Blocks as large as keep a thousand of them in a row: small chunks permute groups.
         let block = (groups / MIN_BLOCKS).clamp(1, MAX_BLOCK);
         let block_shift = block.ilog2();
         let short_row = groups.saturating_sub(1);
         Ok(Self {
             n,
-            shift: group.trailing_zeros(),
+            rows,
             groups,
-            full_rows: n - short_row * group,
+            full_rows: last_rows.min(rows),
             block_shift,
             blocks: ShufflePermutation::new(short_row >> block_shift)?,
         })
     }
 
+    /// Slots: the points kept.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Points kept of each group (the last one: [`full_rows`](Self::full_rows)).
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    pub fn groups(&self) -> u64 {
+        self.groups
+    }
+
+    /// Rows with a point of every group, the last one included (the rows it keeps).
+    pub fn full_rows(&self) -> u64 {
+        self.full_rows
+    }
+
+    /// log2 of the groups in a block.
+    pub fn block_shift(&self) -> u32 {
+        self.block_shift
+    }
+
+    /// The permutation of the whole blocks of a row.
+    pub fn blocks(&self) -> ShufflePermutation {
+        self.blocks
+    }
+
+    /// The slot of point `row` of group `group`, `None` when that point is not kept.
+    pub fn slot(&self, row: u64, group: u64) -> Option<u64> {
+        let last = group + 1 == self.groups;
+        if group >= self.groups || row >= self.rows || (last && row >= self.full_rows) {
+            return None;
+        }
+        let block = group >> self.block_shift;
+        let column = if block < self.blocks.len() {
+            let within = group & ((1 << self.block_shift) - 1);
+            self.blocks.target(block) << self.block_shift | within
+        } else {
+            group
+        };
+        Some(if row < self.full_rows {
+            row * self.groups + column
+        } else {
+            self.full_rows * self.groups + (row - self.full_rows) * (self.groups - 1) + column
+        })
+    }
+}
+
+/// The slots of a file whose points come in groups of `2^shift`, each in random order already
+/// (a store's pointlets): the first `rows` points of every group are kept (all of them unless
+/// the buffer holds fewer slots than the file has points), and the groups are cut into chunks
+/// of consecutive groups, one GPU buffer of `chunk_slots` slots each, interleaved inside
+/// ([`GroupInterleave`]). A chunk fills as its groups load (file order), so it can be drawn
+/// as soon as its buffer exists and loading need not wait for the rest of the GPU memory; a
+/// fill taking the same share of every chunk's slots is a uniform subsample of everything
+/// loaded. Chunk c starts at slot c × `chunk_slots`; the slots a chunk does not fill are never
+/// written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupRows {
+    n: u64,
+    shift: u32,
+    groups: u64,
+    rows: u64,
+    /// Groups per chunk (the last chunk may hold fewer).
+    per_chunk: u64,
+    chunk_slots: u64,
+}
+
+impl GroupRows {
+    /// `n` points in groups of `group` (a power of two) points in a buffer of at most
+    /// `max_slots` slots (at least one a group), in one chunk.
+    pub fn new(n: u64, group: u64, max_slots: u64) -> Result<Self, ShuffleError> {
+        if !group.is_power_of_two() {
+            return Err(ShuffleError::GroupSize { group });
+        }
+        let groups = n.div_ceil(group);
+        let last_size = n - groups.saturating_sub(1) * group;
+        let placed = |rows: u64| groups.saturating_sub(1) * rows + last_size.min(rows);
+        // The most rows within the slots (a short last group leaves room for more).
+        let mut rows = if max_slots >= n {
+            group
+        } else {
+            group.min(max_slots / groups.max(1))
+        };
+        while rows < group && placed(rows + 1) <= max_slots {
+            rows += 1;
+        }
+        if groups > 0 && rows == 0 {
+            return Err(ShuffleError::TooFewSlots {
+                slots: max_slots,
+                groups,
+            });
+        }
+        let order = Self {
+            n,
+            shift: group.trailing_zeros(),
+            groups,
+            rows,
+            per_chunk: groups.max(1),
+            chunk_slots: MAX_SLOTS,
+        };
+        if order.placed() > MAX_SLOTS {
+            return Err(ShuffleError::TooManySlots { n: order.placed() });
+        }
+        Ok(order)
+    }
+
+    /// The same order in chunks of at most `chunk_slots` slots (whole groups).
+    pub fn chunked(self, chunk_slots: u64) -> Result<Self, ShuffleError> {
+        let per_chunk = chunk_slots / self.rows.max(1);
+        if per_chunk == 0 {
+            return Err(ShuffleError::ChunkTooSmall {
+                chunk_slots,
+                rows: self.rows,
+            });
+        }
+        let chunked = Self {
+            per_chunk: per_chunk.min(self.groups.max(1)),
+            chunk_slots,
+            ..self
+        };
+        if chunked.physical_slots() > MAX_SLOTS {
+            return Err(ShuffleError::TooManySlots {
+                n: chunked.physical_slots(),
+            });
+        }
+        Ok(chunked)
+    }
+
+    /// Points of the file.
     pub fn len(&self) -> u64 {
         self.n
     }
@@ -140,36 +278,67 @@ impl GroupInterleave {
         self.groups
     }
 
-    /// Rows with a point of every group, the last one included (the last group's size).
-    pub fn full_rows(&self) -> u64 {
-        self.full_rows
+    /// Points kept of every group (the last one may have fewer).
+    pub fn rows(&self) -> u64 {
+        self.rows
     }
 
-    /// log2 of the groups in a block.
-    pub fn block_shift(&self) -> u32 {
-        self.block_shift
+    /// Points of the last group.
+    fn last_size(&self) -> u64 {
+        self.n - self.groups.saturating_sub(1) * (1 << self.shift)
     }
 
-    /// The permutation of the whole blocks of a row.
-    pub fn blocks(&self) -> ShufflePermutation {
-        self.blocks
+    /// Points the buffer holds.
+    pub fn placed(&self) -> u64 {
+        self.groups.saturating_sub(1) * self.rows + self.last_size().min(self.rows)
     }
 
-    /// The slot of point `i` (< n): row `i mod group`, column its group's (its block moved).
-    pub fn target(&self, i: u64) -> u64 {
-        let (row, group) = (i & ((1 << self.shift) - 1), i >> self.shift);
-        let block = group >> self.block_shift;
-        let column = if block < self.blocks.len() {
-            let within = group & ((1 << self.block_shift) - 1);
-            self.blocks.target(block) << self.block_shift | within
+    pub fn chunk_slots(&self) -> u64 {
+        self.chunk_slots
+    }
+
+    /// Chunks (at least one).
+    pub fn chunks(&self) -> u64 {
+        self.groups.div_ceil(self.per_chunk).max(1)
+    }
+
+    /// The chunk group `group` lies in.
+    pub fn chunk_of(&self, group: u64) -> u64 {
+        group / self.per_chunk
+    }
+
+    /// Chunk `c`: its first group and its slots.
+    pub fn chunk(&self, c: u64) -> Result<(u64, GroupInterleave), ShuffleError> {
+        let first = (c * self.per_chunk).min(self.groups);
+        let end = (first + self.per_chunk).min(self.groups);
+        let last_rows = if end == self.groups {
+            self.last_size()
         } else {
-            group
+            self.rows
         };
-        if row < self.full_rows {
-            row * self.groups + column
-        } else {
-            self.full_rows * self.groups + (row - self.full_rows) * (self.groups - 1) + column
+        Ok((
+            first,
+            GroupInterleave::new(end - first, self.rows, last_rows)?,
+        ))
+    }
+
+    /// Slots from the first chunk's start to the last one's end.
+    pub fn physical_slots(&self) -> u64 {
+        let last = self.chunks() - 1;
+        let last_len = self.chunk(last).map_or(0, |(_, c)| c.len());
+        last * self.chunk_slots + last_len
+    }
+
+    /// The slot of point `i`, `None` when it is not kept.
+    pub fn target(&self, i: u64) -> Option<u64> {
+        if i >= self.n {
+            return None;
         }
+        let (row, group) = (i & ((1 << self.shift) - 1), i >> self.shift);
+        let c = self.chunk_of(group);
+        let (first, chunk) = self.chunk(c).ok()?;
+        let local = chunk.slot(row, group - first)?;
+        Some(c * self.chunk_slots + local)
     }
 }
 
@@ -178,12 +347,13 @@ impl GroupInterleave {
 pub enum SlotOrder {
     /// Any file: the paper's prime-number permutation (eq. 1–2).
     Permuted(ShufflePermutation),
-    /// Files of groups each in random order already (stores): the groups interleaved.
-    Interleaved(GroupInterleave),
+    /// Files of groups each in random order already (stores): the groups interleaved, chunk
+    /// by chunk.
+    Interleaved(GroupRows),
 }
 
 impl SlotOrder {
-    /// Points the order places (those past a smaller buffer's slots are left out).
+    /// Points the order takes (past a permutation's slots, none).
     pub fn len(&self) -> u64 {
         match self {
             Self::Permuted(p) => p.len(),
@@ -195,10 +365,26 @@ impl SlotOrder {
         self.len() == 0
     }
 
-    /// The slot of point `i`.
-    pub fn target(&self, i: u64) -> u64 {
+    /// Points the buffer holds.
+    pub fn placed(&self) -> u64 {
         match self {
-            Self::Permuted(p) => p.target(i),
+            Self::Permuted(p) => p.len(),
+            Self::Interleaved(g) => g.placed(),
+        }
+    }
+
+    /// Slots of the buffer (an interleave's chunks may leave slots unused at their ends).
+    pub fn physical_slots(&self) -> u64 {
+        match self {
+            Self::Permuted(p) => p.len(),
+            Self::Interleaved(g) => g.physical_slots(),
+        }
+    }
+
+    /// The slot of point `i`, `None` when it is left out.
+    pub fn target(&self, i: u64) -> Option<u64> {
+        match self {
+            Self::Permuted(p) => (i < p.len()).then(|| p.target(i)),
             Self::Interleaved(g) => g.target(i),
         }
     }
@@ -312,17 +498,26 @@ fn pow_mod(mut base: u64, mut exp: u64, m: u64) -> u64 {
 mod tests {
     use super::*;
 
-    /// Slot → point of a buffer filled by `order`, checking along the way that no slot is
-    /// hit twice or lies outside the buffer.
+    /// Slot → point of a buffer filled by `order` (`u32::MAX`: a slot no point fills),
+    /// checking along the way that no slot is hit twice or lies outside the buffer and that
+    /// the order places as many points as it says.
     fn filled(order: SlotOrder) -> Vec<u32> {
         let n = order.len() as usize;
-        let mut slots = vec![u32::MAX; n];
+        let mut slots = vec![u32::MAX; order.physical_slots() as usize];
+        let mut placed = 0;
         for i in 0..n {
-            let t = order.target(i as u64);
-            assert!(t < n as u64, "{order:?}: point {i} goes to slot {t}");
+            let Some(t) = order.target(i as u64) else {
+                continue;
+            };
+            assert!(
+                t < slots.len() as u64,
+                "{order:?}: point {i} goes to slot {t}"
+            );
             assert_eq!(slots[t as usize], u32::MAX, "{order:?}: slot {t} hit twice");
             slots[t as usize] = i as u32;
+            placed += 1;
         }
+        assert_eq!(placed, order.placed(), "{order:?}");
         slots
     }
 
@@ -330,8 +525,13 @@ mod tests {
         filled(SlotOrder::Permuted(*perm))
     }
 
-    fn interleaved(order: &GroupInterleave) -> Vec<u32> {
+    fn interleaved(order: &GroupRows) -> Vec<u32> {
         filled(SlotOrder::Interleaved(*order))
+    }
+
+    /// All points of `n` in groups of `group`, in one chunk.
+    fn whole(n: u64, group: u64) -> GroupRows {
+        GroupRows::new(n, group, u64::MAX).unwrap()
     }
 
     #[test]
@@ -504,41 +704,94 @@ mod tests {
     fn interleaved_groups_are_bijections_for_every_size() {
         for group in [1u64, 2, 8, 64] {
             for n in 0..=3_000u64 {
-                interleaved(&GroupInterleave::new(n, group).unwrap());
+                interleaved(&whole(n, group));
             }
         }
         for (n, group) in [(1_000_003u64, 4096u64), (1 << 22, 1024), (65_537, 65_536)] {
-            interleaved(&GroupInterleave::new(n, group).unwrap());
+            interleaved(&whole(n, group));
         }
         assert_eq!(
-            GroupInterleave::new(100, 48),
+            GroupRows::new(100, 48, 100),
             Err(ShuffleError::GroupSize { group: 48 })
         );
         assert_eq!(
-            GroupInterleave::new(MAX_SLOTS + 1, 1024),
+            GroupRows::new(MAX_SLOTS + 1, 1024, u64::MAX),
             Err(ShuffleError::TooManySlots { n: MAX_SLOTS + 1 })
         );
+        assert_eq!(
+            GroupRows::new(1000, 64, 15),
+            Err(ShuffleError::TooFewSlots {
+                slots: 15,
+                groups: 16
+            })
+        );
+        assert_eq!(
+            whole(1000, 64).chunked(63),
+            Err(ShuffleError::ChunkTooSmall {
+                chunk_slots: 63,
+                rows: 64
+            })
+        );
+    }
+
+    #[test]
+    fn chunks_keep_the_first_rows_of_whole_groups_and_place_each_once() {
+        for (n, group, max_slots, chunk_slots) in [
+            (3_000u64, 64u64, u64::MAX, 1_000u64),
+            (3_000, 64, 1_000, 200),
+            (3_001, 64, 2_000, 64),
+            (65_536 * 3 + 5, 4096, u64::MAX, 70_000),
+            (100_000, 256, 30_000, 5_000),
+        ] {
+            let order = GroupRows::new(n, group, max_slots).unwrap();
+            let rows = order.rows();
+            assert!(order.placed() <= max_slots.min(n));
+            let chunked = order.chunked(chunk_slots).unwrap();
+            assert_eq!(chunked.placed(), order.placed());
+            let slots = interleaved(&chunked);
+            // Kept: the first rows of every group, nothing else.
+            for i in 0..n {
+                let kept = chunked.target(i).is_some();
+                assert_eq!(kept, i % group < rows, "n {n}: point {i}");
+            }
+            // Chunk c holds whole groups, from slot c × chunk_slots, filled without a gap.
+            for c in 0..chunked.chunks() {
+                let (first, chunk) = chunked.chunk(c).unwrap();
+                let at = (c * chunk_slots) as usize;
+                let filled = &slots[at..at + chunk.len() as usize];
+                assert!(filled.iter().all(|&i| {
+                    let g = i as u64 / group;
+                    i != u32::MAX && (first..first + chunk.groups()).contains(&g)
+                }));
+                let end = (at + chunk_slots as usize).min(slots.len());
+                assert!(slots[at + chunk.len() as usize..end]
+                    .iter()
+                    .all(|&i| i == u32::MAX));
+            }
+        }
     }
 
     #[test]
     fn whole_blocks_of_groups_land_in_one_run_per_row() {
         // 8 192 groups of 64 points, the last one short: blocks of 8 groups, 1 023 of them
         // permuted in each row (the shorter rows have 8 191 columns).
-        let order = GroupInterleave::new(64 * 8191 + 17, 64).unwrap();
-        assert_eq!((order.groups(), order.full_rows()), (8192, 17));
-        assert_eq!((order.block_shift(), order.blocks().len()), (3, 1023));
+        let order = whole(64 * 8191 + 17, 64);
+        let (_, chunk) = order.chunk(0).unwrap();
+        assert_eq!((chunk.groups(), chunk.full_rows()), (8192, 17));
+        assert_eq!((chunk.block_shift(), chunk.blocks().len()), (3, 1023));
+        let target = |i| order.target(i).unwrap();
         let mut starts = Vec::new();
         for row in 0..64u64 {
             // Groups 40..48 are block 5: one run of 8 slots wherever the block went.
-            let slots: Vec<u64> = (40..48).map(|g| order.target(g * 64 + row)).collect();
+            let slots: Vec<u64> = (40..48).map(|g| target(g * 64 + row)).collect();
             let start = slots[0];
             assert_eq!(slots, (start..start + 8).collect::<Vec<_>>(), "row {row}");
-            starts.push(start - order.target(row));
+            starts.push(start - target(row));
         }
         // The block moved, to the same column in every row.
         assert!(starts.iter().all(|&s| s == starts[0] && s != 40));
         // Small files permute single groups.
-        assert_eq!(GroupInterleave::new(64 * 40, 64).unwrap().block_shift(), 0);
+        assert_eq!(whole(64 * 40, 64).chunk(0).unwrap().1.block_shift(), 0);
     }
 
     /// A `side` × `side` grid scanned row by row, cut into groups of `group` points, each
@@ -550,7 +803,7 @@ mod tests {
         for (k, g) in points.chunks_mut(group).enumerate() {
             crate::shuffle::shuffle(g, k as u64 ^ seed);
         }
-        let slots = interleaved(&GroupInterleave::new(n, group as u64).unwrap());
+        let slots = interleaved(&whole(n, group as u64));
         (points, slots)
     }
 
@@ -572,6 +825,40 @@ mod tests {
     }
 
     #[test]
+    fn the_same_share_of_every_chunk_is_uniform_where_a_prefix_is_not() {
+        // 256 groups of 4096 points (four grid rows each) in four chunks of 64 groups: a chunk
+        // is a quarter of the grid, top to bottom.
+        let side = 1024u32;
+        let group = 4096usize;
+        let n = (side * side) as u64;
+        let mut points: Vec<u32> = (0..n as u32).collect();
+        for (k, g) in points.chunks_mut(group).enumerate() {
+            crate::shuffle::shuffle(g, k as u64);
+        }
+        let order = whole(n, group as u64).chunked(64 * 4096).unwrap();
+        assert_eq!(order.chunks(), 4);
+        let slots = interleaved(&order);
+        let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();
+        let chunk = 64 * group;
+        for percent in [1, 5, 25] {
+            let k = chunk * percent / 100;
+            let shares: Vec<u32> = (0..4)
+                .flat_map(|c| buffer[c * chunk..c * chunk + k].iter().copied())
+                .collect();
+            let chi = chi_square(&shares, side);
+            assert!(
+                chi < CHI2_255_AT_0_001,
+                "{percent} % of each chunk: χ² = {chi}"
+            );
+            let prefix = chi_square(&buffer[..4 * k], side);
+            assert!(
+                prefix > CHI2_255_AT_0_001,
+                "{percent} % prefix of the buffer: χ² = {prefix}"
+            );
+        }
+    }
+
+    #[test]
     fn prefixes_ending_inside_a_row_spread_over_the_whole_file() {
         // Groups of 64 points, 16 to a grid row: 16 384 groups in blocks of 16 (one grid
         // row each), 1 023 blocks permuted in a row. Half a row of slots and a prefix of
@@ -579,7 +866,7 @@ mod tests {
         let side = 1024u32;
         let n = (side * side) as u64;
         let group = 64usize;
-        let order = GroupInterleave::new(n, group as u64).unwrap();
+        let order = whole(n, group as u64).chunk(0).unwrap().1;
         assert_eq!(order.block_shift(), 4);
         let (points, slots) = shuffled_groups_of_a_grid(side, group, 0x5eed);
         let buffer: Vec<u32> = slots.iter().map(|&i| points[i as usize]).collect();

@@ -10,8 +10,9 @@
 //! (`LoadConfig::max_slots`, from the VRAM budget), in which case the buffer keeps a uniform
 //! random subset of the whole file ([`Reservoir`]): the first points go to their permuted
 //! slots, each later one replaces a random slot or is left out. A store's pointlets, shuffled
-//! inside, are interleaved instead of permuted ([`GroupInterleave`]): a batch's points land in
-//! runs of neighbouring slots, and past the slots the first points of every pointlet are kept. A colours-only
+//! inside, are interleaved instead of permuted ([`GroupRows`]): a batch's points land in runs
+//! of neighbouring slots of one chunk of the buffer, and past the slots the first points of
+//! every pointlet are kept. A colours-only
 //! load ([`LoadConfig::colors_only`]) reads the file again and rewrites only the colours of the
 //! same slots (attribute switching, paper §3.5).
 
@@ -21,7 +22,9 @@ use pointlet_core::color::{
 };
 use pointlet_core::density::SurfaceDensity;
 use pointlet_core::extra::ExtraAttributes;
-use pointlet_core::progressive::{GroupInterleave, Reservoir, ShufflePermutation, SlotOrder};
+use pointlet_core::progressive::{
+    GroupRows, Reservoir, ShuffleError, ShufflePermutation, SlotOrder,
+};
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_gpu::shuffle::{
     Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
@@ -337,6 +340,8 @@ impl ProgressiveLoad {
             slots,
         )
         .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?;
+        // An interleave keeps whole rows of every pointlet: at most the budget's points.
+        let slots = order.placed();
         let extras = ExtraAttributes::from_vlrs(&meta.vlrs, usize::from(meta.layout.extra_bytes));
         if let Some(ColorMode::Extra(i)) = asked {
             if usize::from(i) >= extras.attributes.len() {
@@ -520,10 +525,15 @@ impl ProgressiveLoad {
         dst: &ShuffledBuffer,
         max_batches: usize,
     ) -> Result<Uploaded, EngineError> {
-        if dst.encoding() != PointEncoding::Full16
-            || u64::from(dst.slots()) != self.slots
-            || dst.order() != self.order
-        {
+        let same_order = match (dst.order(), self.order) {
+            (SlotOrder::Permuted(a), SlotOrder::Permuted(b)) => a == b,
+            // The buffer's chunks are its own.
+            (SlotOrder::Interleaved(a), SlotOrder::Interleaved(b)) => {
+                (a.len(), a.shift(), a.rows()) == (b.len(), b.shift(), b.rows())
+            }
+            _ => false,
+        };
+        if dst.encoding() != PointEncoding::Full16 || dst.placed() != self.slots || !same_order {
             return Err(EngineError::Config(format!(
                 "{} loads into a full16 shuffled buffer of {} slots ({:?}), not a {} one of {} \
                  ({:?})",
@@ -545,6 +555,11 @@ impl ProgressiveLoad {
             };
             match next {
                 Ok(Message::Batch(mut b)) => {
+                    // Points for a chunk of the buffer not made yet wait for it.
+                    if b.slots.is_none() && !dst.ready_for(b.first, b.read) {
+                        self.stash = Some(Message::Batch(b));
+                        break;
+                    }
                     let targets = match &b.slots {
                         Some(slots) => Targets::Slots(slots),
                         // The load thread keeps permuted batches within the slots ≤ u32::MAX.
@@ -801,11 +816,21 @@ impl Job {
 /// every group, a uniform subset); any other is permuted, the reservoir placing what is past
 /// the slots. The GPU indexes points with 32 bits: a file of more points is permuted too.
 fn slot_order(groups: Option<u64>, total: u64, slots: u64) -> Result<SlotOrder, String> {
-    match groups.filter(|_| total <= u64::from(u32::MAX)) {
-        Some(k) => GroupInterleave::new(total, k).map(SlotOrder::Interleaved),
-        None => ShufflePermutation::new(slots).map(SlotOrder::Permuted),
+    let interleaved = match groups.filter(|_| total <= u64::from(u32::MAX)) {
+        Some(k) => match GroupRows::new(total, k, slots) {
+            Ok(g) => Some(g),
+            // A budget of fewer slots than pointlets: no row of them fits, a subset is kept.
+            Err(ShuffleError::TooFewSlots { .. }) => None,
+            Err(e) => return Err(e.to_string()),
+        },
+        None => None,
+    };
+    match interleaved {
+        Some(g) => Ok(SlotOrder::Interleaved(g)),
+        None => ShufflePermutation::new(slots)
+            .map(SlotOrder::Permuted)
+            .map_err(|e| e.to_string()),
     }
-    .map_err(|e| e.to_string())
 }
 
 /// Parts that make one batch, and the index of its first point in the file.
@@ -1263,5 +1288,15 @@ mod tests {
             Ok(SlotOrder::Permuted(ShufflePermutation::new(4_000).unwrap()))
         );
         assert!(slot_order(Some(48), 100, 100).is_err());
+        // Fewer slots than pointlets: not a row of each fits, the reservoir keeps a subset.
+        assert_eq!(
+            slot_order(Some(64), 6_400, 50),
+            Ok(SlotOrder::Permuted(ShufflePermutation::new(50).unwrap()))
+        );
+        // Whole rows of every pointlet within the budget.
+        match slot_order(Some(64), 6_400, 1_000) {
+            Ok(SlotOrder::Interleaved(g)) => assert_eq!((g.rows(), g.placed()), (10, 1_000)),
+            other => panic!("{other:?}"),
+        }
     }
 }

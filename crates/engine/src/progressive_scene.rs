@@ -151,8 +151,12 @@ struct Untimed {
 pub struct OpenTimes {
     /// Building the passes (pipelines).
     pub passes: Duration,
-    /// Allocating the shuffled buffer and the draw lists, and marking every slot empty.
+    /// Allocating the shuffled buffer (a store's first chunk: the others are made while it
+    /// is drawn) and the draw lists, and marking their slots empty.
     pub buffers: Duration,
+    /// Chunks of the shuffled buffer made then, of all it has.
+    pub chunks_made: usize,
+    pub chunks: usize,
 }
 
 /// A point file loading into a shuffled buffer and drawn progressively.
@@ -238,23 +242,36 @@ impl ProgressiveScene {
         let renderer = ProgressiveRenderer::new(ctx, config.variant, config.page_size)?;
         let shuffle = ShufflePass::new(ctx)?;
         let passes = started.elapsed();
-        let slots = u32::try_from(load.slots()).map_err(|_| {
-            EngineError::Config(format!(
+        if load.slots() > u64::from(u32::MAX) {
+            return Err(EngineError::Config(format!(
                 "{}: {} slots exceed a shuffled buffer's {}",
                 path.display(),
                 load.slots(),
                 u32::MAX
-            ))
-        })?;
+            )));
+        }
         let meta_bounds = load.bounds();
         let started = Instant::now();
-        let mut cloud = ProgressiveCloud::new(ctx, slots, meta_bounds, config.page_size)?;
+        // A store's chunks are the buffer's: each is drawn once it is made and loaded.
+        let order = match load.order() {
+            SlotOrder::Interleaved(g) => g
+                .chunked(ProgressiveCloud::chunk_slots(ctx, config.page_size))
+                .map(SlotOrder::Interleaved)
+                .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?,
+            order => order,
+        };
+        let cloud = ProgressiveCloud::with_order(ctx, order, meta_bounds, config.page_size)?;
         let buffers = started.elapsed();
-        cloud.set_order(load.order())?;
-        let budget = FillBudget::new(u64::from(slots), config.target_frame_ms);
+        let (chunks_made, chunks) = cloud.chunks();
+        let budget = FillBudget::new(u64::from(cloud.points()), config.target_frame_ms);
         Ok(Self {
             config,
-            open_times: OpenTimes { passes, buffers },
+            open_times: OpenTimes {
+                passes,
+                buffers,
+                chunks_made,
+                chunks,
+            },
             load,
             finished: None,
             cloud,
@@ -316,6 +333,12 @@ impl ProgressiveScene {
     /// What making the GPU side took.
     pub fn open_times(&self) -> OpenTimes {
         self.open_times
+    }
+
+    /// Buffers (chunks) of the shuffled buffer made so far, and all it will have: a store's
+    /// are made while the first ones are drawn.
+    pub fn buffer_chunks(&self) -> (usize, usize) {
+        self.cloud.chunks()
     }
 
     /// GPU bytes of the shuffled buffer.
@@ -526,6 +549,8 @@ impl ProgressiveScene {
         }
         self.renderer
             .render(ctx, &self.cloud, state, camera, &settings, target)?;
+        // A store's next chunk, made while the GPU draws this frame and copies its batches.
+        self.cloud.make_next_chunk(ctx)?;
         let frame = self.renderer.frames();
         self.filled_since_change += budget;
         let timing = self.collect_timing(ctx, target, frame, budget);

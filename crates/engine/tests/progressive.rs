@@ -8,7 +8,7 @@ mod common;
 use common::context;
 
 use pointlet_core::color::{point_color, ColorMode};
-use pointlet_core::progressive::{GroupInterleave, Reservoir, SlotOrder};
+use pointlet_core::progressive::{GroupRows, Reservoir, SlotOrder};
 use pointlet_engine::progressive::{
     LoadConfig, LoadProgress, LoadState, ProgressiveLoad, Uploaded,
 };
@@ -241,17 +241,30 @@ fn a_store_lands_in_interleaved_pointlets_dequantized_on_the_gpu() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.pointlet");
     common::build_store(&path, 120_000, 5, 300);
-    check_store_load(&path, u64::from(u32::MAX), None);
+    check_store_load(&path, u64::from(u32::MAX), None, None);
     // A budget of fewer slots keeps the first points of every pointlet.
-    check_store_load(&path, 50_000, None);
+    check_store_load(&path, 50_000, None, None);
     // Colours from the stream bytes: RGB above (the default), classes here.
-    check_store_load(&path, u64::from(u32::MAX), Some(ColorMode::Classification));
+    check_store_load(
+        &path,
+        u64::from(u32::MAX),
+        Some(ColorMode::Classification),
+        None,
+    );
+    // In chunks of whole pointlets, each leaving slots unused at its end.
+    check_store_load(&path, u64::from(u32::MAX), None, Some(5_220));
+    check_store_load(&path, 50_000, None, Some(5_220));
 }
 
-/// Loads the store at `path` into at most `max_slots` slots, coloured by `color` (or the
-/// default), and checks every slot against the CPU's encoding of the point the store's
-/// interleave puts there.
-fn check_store_load(path: &Path, max_slots: u64, color: Option<ColorMode>) {
+/// Loads the store at `path` into at most `max_slots` slots (in buffers of `chunk_slots`, else
+/// one), coloured by `color` (or the default), and checks every slot against the CPU's
+/// encoding of the point the store's interleave puts there.
+fn check_store_load(
+    path: &Path,
+    max_slots: u64,
+    color: Option<ColorMode>,
+    chunk_slots: Option<u64>,
+) {
     let mut gpu = Gpu::new();
     // Batches of two parts (of ~1 875 points), one waiting and one decoding at a time: the
     // few decoded before the first upload tells the loader the GPU go encoded on the CPU,
@@ -268,10 +281,25 @@ fn check_store_load(path: &Path, max_slots: u64, color: Option<ColorMode>) {
     let mut load = ProgressiveLoad::start(path, config).unwrap();
     let store = pointlet_store::Store::open(path).unwrap();
     let h = store.header();
-    let order = SlotOrder::Interleaved(GroupInterleave::new(h.points, h.pointlet_size).unwrap());
-    assert_eq!(load.order(), order);
-    assert_eq!(load.slots(), max_slots.min(h.points));
-    let dst = gpu.buffer(&load);
+    let rows = GroupRows::new(h.points, h.pointlet_size, max_slots).unwrap();
+    assert_eq!(load.order(), SlotOrder::Interleaved(rows));
+    assert_eq!(load.slots(), rows.placed());
+    assert!(rows.placed() <= max_slots.min(h.points));
+    let (order, dst) = match chunk_slots {
+        None => (SlotOrder::Interleaved(rows), gpu.buffer(&load)),
+        Some(cs) => {
+            let chunked = rows.chunked(cs).unwrap();
+            assert!(chunked.chunks() > 2);
+            let order = SlotOrder::Interleaved(chunked);
+            let slots = order.physical_slots() as u32;
+            let mut b =
+                ShuffledBuffer::with_chunk_slots(&gpu.ctx, PointEncoding::Full16, slots, cs as u32)
+                    .unwrap();
+            b.set_order(order).unwrap();
+            assert_eq!(b.chunk_count() as u64, chunked.chunks());
+            (order, b)
+        }
+    };
     let give_up = Instant::now() + Duration::from_secs(60);
     let (mut stored, mut points) = (0, 0);
     while !load.progress().is_finished() {
@@ -297,11 +325,10 @@ fn check_store_load(path: &Path, max_slots: u64, color: Option<ColorMode>) {
     let (mut i, mut kept) = (0u64, 0u64);
     while let Some(b) = r.read_batch(7_000).unwrap() {
         for k in 0..b.len() {
-            let t = order.target(i) as usize;
-            if t as u64 >= load.slots() {
+            let Some(t) = order.target(i).map(|t| t as usize) else {
                 i += 1;
                 continue;
-            }
+            };
             kept += 1;
             let want = encode_point(b.xyz[k], load.origin(), [1.0; 3], PointEncoding::Full16);
             for a in 0..3 {

@@ -5,11 +5,13 @@
 // Follows the progressive-rendering paper (Schütz et al.), §3.1 (Distribute buffer into the
 // shuffled vertex buffer) and §3.3, eq. 1 (permute) and eq. 2 (target = permute ∘ permute),
 // with P the largest prime ≡ 3 (mod 4) not above the buffer's size (0: identity).
-// A store's points are in pointlets shuffled when it was built: `interleaved` puts point j of
-// every pointlet before point j + 1 of any, blocks of neighbouring pointlets permuted within a
-// row by eq. 1–2 over the blocks (core::progressive::GroupInterleave) instead, and
-// threads walk a batch row by row, so that neighbouring threads write neighbouring slots (the
-// permutation's writes to random slots of a multi-GB buffer cost ~1 ns a point).
+// A store's points are in pointlets shuffled when it was built: `interleaved` cuts the
+// pointlets into chunks of whole pointlets (one destination buffer each, so a chunk can be
+// drawn as soon as it is made and loaded) and inside a chunk puts point j of every pointlet
+// before point j + 1 of any, keeping the first `rows` of each, blocks of neighbouring
+// pointlets permuted within a row by eq. 1–2 over the blocks (core::progressive::GroupRows)
+// instead; threads walk a batch row by row, so that neighbouring threads write neighbouring
+// slots (the permutation's writes to random slots of a multi-GB buffer cost ~1 ns a point).
 // WGSL has only 32-bit integers, so i² mod P is a Montgomery product (REDC with R = 2^32) of
 // 16-bit partial products: straight-line code, no loop over the bits.
 // Two variations: `given_slots` takes each point's slot from src_slots instead (points past the
@@ -38,9 +40,9 @@ struct Shuffle {
     // Montgomery constants of prime (R = 2^32): -prime⁻¹ mod R and R² mod prime.
     neg_inv: u32,
     r2: u32,
-    // Interleaved groups of 2^group_shift points: their number, the rows that include the
-    // (possibly short) last group, and the groups a batch touches. `prime` and its constants
-    // then permute the whole blocks (of 2^block_shift groups) of a row.
+    // Interleaved groups of 2^group_shift points, for one chunk: its groups, the rows that
+    // include its (possibly short) last group, and the groups of the batch in it. `prime` and
+    // its constants then permute the whole blocks (of 2^block_shift groups) of a row.
     interleaved: u32,
     group_shift: u32,
     groups: u32,
@@ -50,6 +52,12 @@ struct Shuffle {
     points: u32,
     block_shift: u32,
     blocks: u32,
+    // Points kept of every group; the chunk's first group and first slot; the window's first
+    // group.
+    rows: u32,
+    first_group: u32,
+    chunk_base: u32,
+    window_first: u32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
@@ -147,11 +155,9 @@ fn shuffle_target(i: u32, m: Modulus) -> u32 {
     return permute(permute(i, m), m);
 }
 
-// The slot of point i under the interleave: row i mod group, column its group's, its block
-// moved by eq. 2 over the row's whole blocks.
-fn interleaved_target(i: u32) -> u32 {
-    let row = i & ((1u << shuffle.group_shift) - 1u);
-    let group = i >> shuffle.group_shift;
+// The chunk's slot of point `row` of its group `group` under the interleave: its block moved
+// by eq. 2 over the row's whole blocks.
+fn interleaved_slot(row: u32, group: u32) -> u32 {
     let block = group >> shuffle.block_shift;
     var column = group;
     if block < shuffle.blocks {
@@ -172,18 +178,19 @@ fn scatter(@builtin(global_invocation_id) gid: vec3<u32>,
     var j = gid.x + gid.y * nwg.x * 256u;
     var t: u32;
     if shuffle.interleaved != 0u {
-        // Thread k takes row k / window of the batch's groups, group k mod window of them.
-        if j >= shuffle.window << shuffle.group_shift {
+        // Thread k takes row k / window of the batch's groups in the chunk, group k mod window.
+        if j >= shuffle.window * shuffle.rows {
             return;
         }
         let row = j / shuffle.window;
-        let group = (shuffle.first >> shuffle.group_shift) + j % shuffle.window;
+        let group = shuffle.window_first + j % shuffle.window;
         let i = (group << shuffle.group_shift) + row;
+        // The last group's missing rows lie past the points.
         if i < shuffle.first || i - shuffle.first >= shuffle.count || i >= shuffle.points {
             return;
         }
         j = i - shuffle.first;
-        t = interleaved_target(i);
+        t = shuffle.chunk_base + interleaved_slot(row, group - shuffle.first_group);
     } else if j >= shuffle.count {
         return;
     } else if shuffle.given_slots != 0u {

@@ -24,11 +24,12 @@ use crate::shaders;
 use crate::shuffle::ShuffledBuffer;
 use crate::splat::{self, SplatMode, SplatSettings};
 use crate::storage::{
-    check_page_size, point_group_layout, DrawBuffers, GpuDrawEntry, GpuDrawInfo, GpuFrame,
-    PointEncoding, PointStorage,
+    check_page_size, point_group_layout, ChunkMaker, DrawBuffers, GpuDrawEntry, GpuDrawInfo,
+    GpuFrame, PointChunk, PointEncoding, PointStorage,
 };
 use crate::target::{map_read, RenderTarget};
 use crate::GpuError;
+use pointlet_core::progressive::{ShufflePermutation, SlotOrder};
 use pointlet_core::{Aabb, Camera};
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
@@ -39,11 +40,24 @@ use std::collections::HashMap;
 /// cloud would be far too coarse).
 pub const ENCODING: PointEncoding = PointEncoding::Full16;
 
+/// Bytes of positions in one chunk of an interleaved (store's) buffer: the driver makes device
+/// memory at ~57 GB/s, so a chunk of 512 MiB of positions (~680 MiB with its colours) costs
+/// the frame that makes it ~12 ms, and a 1 G-point buffer comes in 23 of them.
+pub const CHUNK_BYTES: u64 = 512 << 20;
+
 /// A shuffled point buffer in page slots, drawn by the progressive passes. Batches are
 /// scattered into [`shuffled`](Self::shuffled) with [`crate::shuffle::ShufflePass`], their
 /// positions encoded (Full16) relative to [`origin`](Self::origin).
 pub struct ProgressiveCloud {
+    /// Points the buffer holds (N: the Fill pass cycles through them).
     points: u32,
+    /// Slots of the buffer (past `points` when an interleave's chunks leave some unused).
+    physical: u32,
+    /// The stretches of slots each fill takes the same share of: (first slot, slots). One for a
+    /// permutation; a chunk each for an interleave, whose prefix is uniform within the chunk.
+    fill_units: Vec<(u64, u64)>,
+    /// What makes the chunks of the buffer not made yet.
+    maker: Option<ChunkMaker>,
     page_size: u32,
     origin: [f64; 3],
     storage: PointStorage,
@@ -65,24 +79,78 @@ pub struct ProgressiveCloud {
 }
 
 impl ProgressiveCloud {
-    /// Room for `points` points inside `bounds`, in pages of `page_size` slots.
+    /// Room for `points` points inside `bounds`, in pages of `page_size` slots, placed by the
+    /// paper's permutation.
     pub fn new(
         ctx: &GpuContext,
         points: u32,
         bounds: Aabb,
         page_size: u32,
     ) -> Result<Self, GpuError> {
+        let order = SlotOrder::Permuted(
+            ShufflePermutation::new(u64::from(points))
+                .map_err(|e| GpuError::InvalidInput(e.to_string()))?,
+        );
+        Self::with_order(ctx, order, bounds, page_size)
+    }
+
+    /// Slots of one chunk of an interleaved buffer on this device
+    /// ([`GroupRows::chunked`](pointlet_core::progressive::GroupRows::chunked)): at most
+    /// [`CHUNK_BYTES`] of positions, so that making one costs a frame ~10 ms.
+    pub fn chunk_slots(ctx: &GpuContext, page_size: u32) -> u64 {
+        let device = PointStorage::slots_per_chunk(ctx, ENCODING, page_size);
+        let pages = CHUNK_BYTES / (ENCODING.position_bytes() * page_size as u64);
+        (pages.clamp(1, device as u64)) * page_size as u64
+    }
+
+    /// Room for the points `order` places inside `bounds`. An interleave's chunks after the
+    /// first are made a frame at a time while the first ones are drawn
+    /// ([`make_next_chunk`](Self::make_next_chunk)); a permutation's all at once (its batches
+    /// go to every chunk).
+    pub fn with_order(
+        ctx: &GpuContext,
+        order: SlotOrder,
+        bounds: Aabb,
+        page_size: u32,
+    ) -> Result<Self, GpuError> {
         check_page_size(page_size)?;
+        let too_many = |n: u64| GpuError::InvalidInput(format!("{n} slots exceed 2^32 - 1"));
+        let points = u32::try_from(order.placed()).map_err(|_| too_many(order.placed()))?;
+        let physical =
+            u32::try_from(order.physical_slots()).map_err(|_| too_many(order.physical_slots()))?;
         let finite = bounds.min.iter().chain(&bounds.max).all(|v| v.is_finite());
         if points > 0 && (!finite || (0..3).any(|a| bounds.min[a] > bounds.max[a])) {
             return Err(GpuError::InvalidInput(format!(
                 "a progressive cloud of {points} points needs finite bounds, got {bounds:?}"
             )));
         }
+        let fill_units = match order {
+            SlotOrder::Permuted(p) => vec![(0, p.len())],
+            SlotOrder::Interleaved(g) => {
+                if g.chunks() > 1 && g.chunk_slots() % page_size as u64 != 0 {
+                    return Err(GpuError::InvalidInput(format!(
+                        "an interleave in chunks of {} slots for a buffer of {page_size}-slot \
+                         pages",
+                        g.chunk_slots()
+                    )));
+                }
+                (0..g.chunks())
+                    .map(|c| {
+                        let len = g.chunk(c).map_or(0, |(_, chunk)| chunk.len());
+                        (c * g.chunk_slots(), len)
+                    })
+                    .collect()
+            }
+        };
         let origin = if points > 0 { bounds.min } else { [0.0; 3] };
-        let pages = points.div_ceil(page_size);
-        let chunks = PointStorage::chunk_count(ctx, ENCODING, page_size, pages);
-        let per_chunk = PointStorage::slots_per_chunk(ctx, ENCODING, page_size);
+        let pages = physical.div_ceil(page_size);
+        let per_chunk = match order {
+            SlotOrder::Interleaved(g) if g.chunks() > 1 => {
+                (g.chunk_slots() / page_size as u64).min(u64::from(u32::MAX)) as u32
+            }
+            _ => PointStorage::slots_per_chunk(ctx, ENCODING, page_size),
+        };
+        let chunks = pages.max(1).div_ceil(per_chunk.max(1));
         // A fill range and its wrapped rest are disjoint, so they share at most one page.
         let entry_stride = per_chunk.min(pages.max(1)) + 1;
         let device = &ctx.device;
@@ -119,7 +187,7 @@ impl ProgressiveCloud {
             wgpu::BufferUsages::UNIFORM,
         )?;
         let list_offsets: Vec<u32> = (0..chunks).map(|c| c * entry_stride).collect();
-        let storage = PointStorage::new(
+        let (mut storage, maker) = PointStorage::planned(
             ctx,
             ENCODING,
             page_size,
@@ -131,11 +199,22 @@ impl ProgressiveCloud {
                 entry_counts: &entry_counts,
                 list_offsets: &list_offsets,
             },
+            per_chunk,
         )?;
-        let shuffled = ShuffledBuffer::in_storage(&storage, points)?;
-        mark_empty(ctx, &storage)?;
+        let deferred = matches!(order, SlotOrder::Interleaved(_)) && maker.chunks() > 1;
+        let made_now = if deferred { 1 } else { maker.chunks() };
+        for index in 0..made_now {
+            storage.chunks.push(maker.make_checked(index)?);
+        }
+        mark_empty(ctx, &storage.chunks, page_size)?;
+        let mut shuffled = ShuffledBuffer::in_storage(&storage, physical)?;
+        shuffled.set_order(order)?;
+        let maker = deferred.then_some(maker);
         Ok(Self {
             points,
+            physical,
+            fill_units,
+            maker,
             page_size,
             origin,
             storage,
@@ -152,7 +231,30 @@ impl ProgressiveCloud {
         })
     }
 
-    /// Slots of the shuffled buffer (N).
+    /// Makes the next chunk of the buffer, if one is missing (its slots empty): one a frame,
+    /// ~10 ms, while the chunks before it are drawn. Batches for a chunk wait until it is made
+    /// ([`ShuffledBuffer::ready_for`]). Whether a chunk was made.
+    pub fn make_next_chunk(&mut self, ctx: &GpuContext) -> Result<bool, GpuError> {
+        let Some(maker) = &self.maker else {
+            return Ok(false);
+        };
+        let index = self.storage.chunks.len() as u32;
+        let chunk = maker.make_checked(index)?;
+        mark_empty(ctx, std::slice::from_ref(&chunk), self.page_size)?;
+        self.shuffled.install(&chunk, self.page_size);
+        self.storage.chunks.push(chunk);
+        if index + 1 >= maker.chunks() {
+            self.maker = None;
+        }
+        Ok(true)
+    }
+
+    /// Chunks of the buffer in, and all it will have.
+    pub fn chunks(&self) -> (usize, usize) {
+        (self.storage.chunks.len(), self.storage.planned_chunks())
+    }
+
+    /// Points the shuffled buffer holds (N).
     pub fn points(&self) -> u32 {
         self.points
     }
@@ -171,18 +273,10 @@ impl ProgressiveCloud {
         &self.shuffled
     }
 
-    /// Places points by `order` (see [`ShuffledBuffer::set_order`]); before the first batch.
-    pub fn set_order(
-        &mut self,
-        order: pointlet_core::progressive::SlotOrder,
-    ) -> Result<(), GpuError> {
-        self.shuffled.set_order(order)
-    }
-
     /// The position of the point in `slot` (f32 offsets from the origin), `None` for an empty
     /// or missing slot; waits for the GPU.
     pub fn position(&self, ctx: &GpuContext, slot: u32) -> Result<Option<[f64; 3]>, GpuError> {
-        if slot >= self.points {
+        if slot >= self.physical {
             return Ok(None);
         }
         let page = slot / self.page_size;
@@ -213,7 +307,7 @@ impl ProgressiveCloud {
         if let Some(b) = self.listed.get() {
             return Ok(b);
         }
-        let bytes = (self.storage.chunks.len() as u64
+        let bytes = (self.storage.planned_chunks() as u64
             * self.storage.slots_per_chunk as u64
             * self.page_size as u64)
             .div_ceil(32)
@@ -263,22 +357,29 @@ impl ProgressiveCloud {
         write_frame(ctx, &self.frame_uniform, camera, size, &render);
     }
 
-    /// Writes the Fill pass's draw entries for slots `first..first + count` (wrapping at N):
-    /// one entry per page touched, listed under the page's chunk.
+    /// Writes the Fill pass's draw entries for fill positions `first..first + count` (wrapping
+    /// at N): the same share of every fill unit, one entry per page touched, listed under the
+    /// page's chunk; chunks not made yet are left out.
     fn write_fill(&self, ctx: &GpuContext, first: u32, count: u32) {
-        let chunks = self.storage.chunks.len();
+        let chunks = self.storage.planned_chunks();
         let mut lists: Vec<Vec<GpuDrawEntry>> = vec![Vec::new(); chunks];
         let ps = self.page_size as u64;
-        for (a, b) in fill_ranges(self.points, first, count) {
-            for page in a / ps..b.div_ceil(ps) {
-                let (lo, hi) = (a.max(page * ps), b.min((page + 1) * ps));
-                let chunk = (page / self.storage.slots_per_chunk as u64) as usize;
-                lists[chunk].push(GpuDrawEntry {
-                    slot: page as u32,
-                    info: 0,
-                    first: (lo - page * ps) as u32,
-                    count: (hi - lo) as u32,
-                });
+        for &(base, len) in &self.fill_units {
+            for (a, b) in unit_ranges(self.points, len, first, count) {
+                let (a, b) = (base + a, base + b);
+                for page in a / ps..b.div_ceil(ps) {
+                    let (lo, hi) = (a.max(page * ps), b.min((page + 1) * ps));
+                    let chunk = (page / self.storage.slots_per_chunk as u64) as usize;
+                    if chunk >= self.storage.chunks.len() {
+                        continue;
+                    }
+                    lists[chunk].push(GpuDrawEntry {
+                        slot: page as u32,
+                        info: 0,
+                        first: (lo - page * ps) as u32,
+                        count: (hi - lo) as u32,
+                    });
+                }
             }
         }
         let entry_bytes = std::mem::size_of::<GpuDrawEntry>() as u64;
@@ -301,12 +402,34 @@ impl ProgressiveCloud {
     }
 }
 
+/// The ranges of a fill unit of `len` slots that fill positions `first..first + count` of a
+/// cycle of `points` take: the unit's share, up to its end and the wrapped rest (empty ranges
+/// are `(0, 0)`). Consecutive fills tile the unit, and a whole cycle covers it exactly once.
+pub fn unit_ranges(points: u32, len: u64, first: u32, count: u32) -> [(u64, u64); 2] {
+    let n = points as u128;
+    if n == 0 || len == 0 {
+        return [(0, 0); 2];
+    }
+    let len = len as u128;
+    let start = first as u128 % n;
+    let end = start + (count as u128).min(n);
+    // Floors of the same proportion: the next fill starts where this one ends.
+    let (a, b) = (start * len / n, end * len / n);
+    [
+        (a as u64, b.min(len) as u64),
+        (0, b.saturating_sub(len) as u64),
+    ]
+}
+
 /// The x word of a slot no point has been loaded into (empty_slots.wgsl, fetch_full16.wgsl).
 pub const EMPTY_SLOT: u32 = u32::MAX;
 
-/// Marks every slot of `storage` empty (empty_slots.wgsl): the Fill pass skips slots that no
+/// Marks every slot of `chunks` empty (empty_slots.wgsl): the Fill pass skips slots that no
 /// point has been loaded into yet.
-fn mark_empty(ctx: &GpuContext, storage: &PointStorage) -> Result<(), GpuError> {
+fn mark_empty(ctx: &GpuContext, chunks: &[PointChunk], page_size: u32) -> Result<(), GpuError> {
+    if chunks.is_empty() {
+        return Ok(());
+    }
     let device = &ctx.device;
     let words = (ENCODING.position_bytes() / 4) as u32;
     ctx.checked("marking the shuffled buffer empty", || {
@@ -321,11 +444,10 @@ fn mark_empty(ctx: &GpuContext, storage: &PointStorage) -> Result<(), GpuError> 
         });
         let layout = pipeline.get_bind_group_layout(0);
         let mut enc = device.create_command_encoder(&Default::default());
-        let groups: Vec<(wgpu::BindGroup, u32)> = storage
-            .chunks
+        let groups: Vec<(wgpu::BindGroup, u32)> = chunks
             .iter()
             .map(|c| {
-                let slots = c.slots * storage.page_size;
+                let slots = c.slots * page_size;
                 let uniform = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("empty slots"),
                     size: 16,
@@ -352,18 +474,6 @@ fn mark_empty(ctx: &GpuContext, storage: &PointStorage) -> Result<(), GpuError> 
         drop(pass);
         ctx.queue.submit([enc.finish()]);
     })
-}
-
-/// The slot ranges of a fill of `count` slots from `first` in a buffer of `points` slots: the
-/// range up to the end and the wrapped rest (empty ranges are `(0, 0)`); at most all slots.
-pub fn fill_ranges(points: u32, first: u32, count: u32) -> [(u64, u64); 2] {
-    let n = points as u64;
-    if n == 0 {
-        return [(0, 0); 2];
-    }
-    let start = first as u64 % n;
-    let end = start + (count as u64).min(n);
-    [(start, end.min(n)), (0, end.saturating_sub(n))]
 }
 
 /// What a progressive view keeps between frames, for one cloud and one image size: the index

@@ -9,7 +9,7 @@
 use crate::context::GpuContext;
 use crate::raster::{grid, storage_group};
 use crate::shaders;
-use crate::storage::{PointEncoding, PointStorage};
+use crate::storage::{PointChunk, PointEncoding, PointStorage};
 use crate::target::map_read;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
@@ -289,7 +289,11 @@ struct ShuffledChunk {
 }
 
 /// A point buffer of n slots that batches are shuffled into: point i goes to slot
-/// `order.target(i)`, or is left out when that lies past the slots.
+/// `order.target(i)`, or is left out when it has none or that lies past the slots. Its
+/// buffers may come later than the buffer itself (a store's chunks, [`install`]ed as they are
+/// made): batches for slots of missing buffers must wait ([`ready_for`](Self::ready_for)).
+///
+/// [`install`]: ShuffledBuffer::install
 pub struct ShuffledBuffer {
     encoding: PointEncoding,
     slots: u32,
@@ -364,44 +368,83 @@ impl ShuffledBuffer {
     /// s % page_size of page s / page_size, so the rasterizers draw it as they draw any page
     /// (progressive.rs). The buffers are shared, not copied.
     pub(crate) fn in_storage(storage: &PointStorage, n: u32) -> Result<Self, GpuError> {
-        let order = permuted(n)?;
-        let page = storage.page_size as u64;
-        let chunks = storage
-            .chunks
-            .iter()
-            .map(|c| {
-                let first_slot = c.first_slot as u64 * page;
-                // Slots past n (the last page's tail) are never shuffled into.
-                let slots = (c.slots as u64 * page).min((n as u64).saturating_sub(first_slot));
-                ShuffledChunk {
-                    positions: c.positions.clone(),
-                    fine: c.fine.clone(),
-                    colors: c.colors.clone(),
-                    first_slot: first_slot.min(u32::MAX as u64) as u32,
-                    slots: slots as u32,
-                }
-            })
-            .collect();
-        Ok(Self {
+        let mut buffer = Self {
             encoding: storage.encoding,
             slots: n,
-            order,
-            chunks,
-        })
+            order: permuted(n)?,
+            chunks: Vec::new(),
+        };
+        for c in &storage.chunks {
+            buffer.install(c, storage.page_size);
+        }
+        Ok(buffer)
     }
 
-    /// Places points by `order` instead of the permutation of the slots; an order of fewer
-    /// points than slots is refused (slots nothing could fill).
+    /// Adds the storage chunk that follows the last one.
+    pub(crate) fn install(&mut self, c: &PointChunk, page_size: u32) {
+        let page = page_size as u64;
+        let first_slot = c.first_slot as u64 * page;
+        // Slots past n (the last page's tail) are never shuffled into.
+        let slots = (c.slots as u64 * page).min((self.slots as u64).saturating_sub(first_slot));
+        self.chunks.push(ShuffledChunk {
+            positions: c.positions.clone(),
+            fine: c.fine.clone(),
+            colors: c.colors.clone(),
+            first_slot: first_slot.min(u32::MAX as u64) as u32,
+            slots: slots as u32,
+        });
+    }
+
+    /// Places points by `order` instead of the permutation of the slots: a permutation of
+    /// fewer points than slots is refused (slots nothing could fill), and an interleave must
+    /// span the slots exactly.
     pub fn set_order(&mut self, order: SlotOrder) -> Result<(), GpuError> {
-        if order.len() < u64::from(self.slots) {
+        let fits = match order {
+            SlotOrder::Permuted(p) => p.len() >= u64::from(self.slots),
+            SlotOrder::Interleaved(g) => g.physical_slots() == u64::from(self.slots),
+        };
+        if !fits {
             return Err(GpuError::InvalidInput(format!(
-                "an order of {} points for a shuffled buffer of {} slots",
+                "an order of {} points in {} slots for a shuffled buffer of {} slots",
                 order.len(),
+                order.physical_slots(),
                 self.slots
             )));
         }
         self.order = order;
         Ok(())
+    }
+
+    /// Points the buffer holds once every batch is in (its slots, unless an interleave's
+    /// chunks leave some unused).
+    pub fn placed(&self) -> u64 {
+        match self.order {
+            SlotOrder::Permuted(_) => u64::from(self.slots),
+            SlotOrder::Interleaved(g) => g.placed(),
+        }
+    }
+
+    /// Whether the buffers of every slot that points `first..first + count` may go to are
+    /// there.
+    pub fn ready_for(&self, first: u64, count: u64) -> bool {
+        let end = match (self.order, count) {
+            (_, 0) => return true,
+            (SlotOrder::Interleaved(g), _) => {
+                let last = (first + count - 1) >> g.shift();
+                let c = g.chunk_of(last.min(g.groups().saturating_sub(1)));
+                let len = g.chunk(c).map_or(0, |(_, chunk)| chunk.len());
+                c * g.chunk_slots() + len
+            }
+            (SlotOrder::Permuted(_), _) => u64::from(self.slots),
+        };
+        self.installed_slots() >= end.min(u64::from(self.slots))
+    }
+
+    /// Slots whose buffers are there (a prefix of the buffer).
+    pub fn installed_slots(&self) -> u64 {
+        self.chunks
+            .last()
+            .map_or(0, |c| u64::from(c.first_slot) + u64::from(c.slots))
     }
 
     pub fn encoding(&self) -> PointEncoding {
@@ -492,6 +535,10 @@ struct ShuffleUniform {
     points: u32,
     block_shift: u32,
     blocks: u32,
+    rows: u32,
+    first_group: u32,
+    chunk_base: u32,
+    window_first: u32,
     _pad: [u32; 3],
     dequantize: DequantizeUniform,
 }
@@ -694,55 +741,91 @@ impl ShufflePass {
             q.write_buffer(&staging.slots, 0, bytemuck::cast_slice(s));
         }
         let layout = self.pipeline.get_bind_group_layout(0);
-        let prime = match dst.order {
-            SlotOrder::Permuted(p) => p.prime() as u32,
-            SlotOrder::Interleaved(g) => g.blocks().prime() as u32,
+        let base = ShuffleUniform {
+            n: dst.slots,
+            first,
+            count: count as u32,
+            words: words as u32,
+            has_fine: compact as u32,
+            explicit: slots.is_some() as u32,
+            colors_only: colors_only as u32,
+            quantized: dequantize.is_some() as u32,
+            points: n.min(u64::from(u32::MAX)) as u32,
+            dequantize: dequantize.map(|d| d.uniform()).unwrap_or_default(),
+            ..Zeroable::zeroed()
         };
-        let (neg_inv, r2) = montgomery_constants(prime);
-        // Interleaved groups: one thread per point of the window of groups the batch touches.
-        let interleave = match (dst.order, slots) {
-            (SlotOrder::Interleaved(g), None) => Some(g),
-            _ => None,
-        };
-        let (window, threads) = match interleave {
-            Some(g) => {
+        // (uniform, threads, the physical slots the dispatch may write) per dispatch.
+        let mut work: Vec<(ShuffleUniform, u64, (u64, u64))> = Vec::new();
+        match (dst.order, slots) {
+            // Interleaved groups: per chunk the batch touches, one thread per kept point of
+            // the window of its groups, row by row.
+            (SlotOrder::Interleaved(g), None) => {
                 let shift = g.shift();
-                let (start, end) = (first as u64 >> shift, (first as u64 + count - 1) >> shift);
-                let window = end + 1 - start;
-                (window as u32, window << shift)
-            }
-            None => (0, count),
-        };
-        ctx.checked("recording the shuffle pass", || {
-            // One uniform and bind group per destination chunk: each dispatch sees its own.
-            let groups: Vec<wgpu::BindGroup> = dst
-                .chunks
-                .iter()
-                .map(|c| {
+                let (g0, g1) = (first as u64 >> shift, (first as u64 + count - 1) >> shift);
+                let last = g.groups().saturating_sub(1);
+                for c in g.chunk_of(g0.min(last))..=g.chunk_of(g1.min(last)) {
+                    let (first_group, chunk) = g
+                        .chunk(c)
+                        .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+                    let window_first = g0.max(first_group);
+                    let window_end = (g1 + 1).min(first_group + chunk.groups());
+                    if window_end <= window_first {
+                        continue;
+                    }
+                    let window = window_end - window_first;
+                    let prime = chunk.blocks().prime() as u32;
+                    let (neg_inv, r2) = montgomery_constants(prime);
+                    let chunk_base = c * g.chunk_slots();
                     let uniform = ShuffleUniform {
-                        n: dst.slots,
                         prime,
-                        first,
-                        count: count as u32,
-                        first_slot: c.first_slot,
-                        slots: c.slots,
-                        words: words as u32,
-                        has_fine: compact as u32,
-                        explicit: slots.is_some() as u32,
-                        colors_only: colors_only as u32,
-                        quantized: dequantize.is_some() as u32,
                         neg_inv,
                         r2,
-                        interleaved: interleave.is_some() as u32,
-                        group_shift: interleave.map_or(0, |g| g.shift()),
-                        groups: interleave.map_or(0, |g| g.groups() as u32),
-                        full_rows: interleave.map_or(0, |g| g.full_rows() as u32),
-                        window,
-                        points: n.min(u64::from(u32::MAX)) as u32,
-                        block_shift: interleave.map_or(0, |g| g.block_shift()),
-                        blocks: interleave.map_or(0, |g| g.blocks().len() as u32),
-                        _pad: [0; 3],
-                        dequantize: dequantize.map(|d| d.uniform()).unwrap_or_default(),
+                        interleaved: 1,
+                        group_shift: shift,
+                        groups: chunk.groups() as u32,
+                        full_rows: chunk.full_rows() as u32,
+                        window: window as u32,
+                        block_shift: chunk.block_shift(),
+                        blocks: chunk.blocks().len() as u32,
+                        rows: chunk.rows() as u32,
+                        first_group: first_group as u32,
+                        chunk_base: chunk_base as u32,
+                        window_first: window_first as u32,
+                        ..base
+                    };
+                    let span = (chunk_base, chunk_base + chunk.len());
+                    work.push((uniform, window * chunk.rows(), span));
+                }
+            }
+            (order, _) => {
+                let prime = match order {
+                    SlotOrder::Permuted(p) => p.prime() as u32,
+                    SlotOrder::Interleaved(_) => 0,
+                };
+                let (neg_inv, r2) = montgomery_constants(prime);
+                let uniform = ShuffleUniform {
+                    prime,
+                    neg_inv,
+                    r2,
+                    ..base
+                };
+                work.push((uniform, count, (0, u64::from(dst.slots))));
+            }
+        }
+        ctx.checked("recording the shuffle pass", || {
+            // One uniform and bind group per destination chunk a dispatch may write: each
+            // dispatch sees its own.
+            let mut groups = Vec::new();
+            for (uniform, threads, (lo, hi)) in &work {
+                for c in &dst.chunks {
+                    let (start, end) = (c.first_slot as u64, c.first_slot as u64 + c.slots as u64);
+                    if end <= *lo || start >= *hi {
+                        continue;
+                    }
+                    let uniform = ShuffleUniform {
+                        first_slot: c.first_slot,
+                        slots: c.slots,
+                        ..*uniform
                     };
                     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("shuffle uniform"),
@@ -763,18 +846,18 @@ impl ShufflePass {
                         &c.colors,
                         &staging.slots,
                     ];
-                    storage_group(&ctx.device, "shuffle", &layout, &buffers)
-                })
-                .collect();
+                    let group = storage_group(&ctx.device, "shuffle", &layout, &buffers);
+                    groups.push((group, grid(threads.div_ceil(256) as u32)));
+                }
+            }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("shuffle"),
                 timestamp_writes: None,
             });
             pass.set_pipeline(&self.pipeline);
-            let [x, y] = grid(threads.div_ceil(256) as u32);
-            for g in &groups {
+            for (g, [x, y]) in &groups {
                 pass.set_bind_group(0, g, &[]);
-                pass.dispatch_workgroups(x, y, 1);
+                pass.dispatch_workgroups(*x, *y, 1);
             }
         })?;
         q.submit([enc.finish()]);

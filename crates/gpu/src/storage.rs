@@ -250,7 +250,132 @@ pub(crate) struct PointStorage {
     pub encoding: PointEncoding,
     pub page_size: u32,
     pub slots_per_chunk: u32,
+    /// The chunks made so far, in slot order.
     pub chunks: Vec<PointChunk>,
+    planned: usize,
+}
+
+/// Makes the chunks of a [`PointStorage`]: a chunk's buffers and its bind group, one at a
+/// time, so that the first chunks can be drawn while the next are made (the driver makes
+/// device memory at ~57 GB/s, a third of a second for a 1 G-point buffer).
+pub(crate) struct ChunkMaker {
+    device: wgpu::Device,
+    layout: wgpu::BindGroupLayout,
+    frame: wgpu::Buffer,
+    infos: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    entry_counts: wgpu::Buffer,
+    list_offsets: Vec<u32>,
+    encoding: PointEncoding,
+    page_size: u32,
+    slots_per_chunk: u32,
+    total_slots: u32,
+}
+
+impl ChunkMaker {
+    /// Chunks of the storage (an empty storage still gets a one-page chunk).
+    pub fn chunks(&self) -> u32 {
+        self.total_slots.max(1).div_ceil(self.slots_per_chunk)
+    }
+
+    /// Chunk `index`'s buffers and bind group, with the device's errors in making them.
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn make_checked(&self, index: u32) -> Result<PointChunk, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let made = self.make(index);
+        let v = pollster::block_on(validation.pop());
+        let o = pollster::block_on(oom.pop());
+        if let Some(e) = o {
+            return Err(GpuError::OutOfMemory(format!(
+                "allocating GPU point memory: {e}"
+            )));
+        }
+        if let Some(e) = v {
+            return Err(GpuError::Validation(format!(
+                "allocating GPU point memory: {e}"
+            )));
+        }
+        made
+    }
+
+    /// In a browser error scopes answer through promises, which cannot be waited for here:
+    /// errors surface through the uncaptured-error handler.
+    #[cfg(target_arch = "wasm32")]
+    pub fn make_checked(&self, index: u32) -> Result<PointChunk, GpuError> {
+        self.make(index)
+    }
+
+    fn make(&self, index: u32) -> Result<PointChunk, GpuError> {
+        let device = &self.device;
+        let first_slot = index * self.slots_per_chunk;
+        let slots = (self.total_slots.max(1) - first_slot).min(self.slots_per_chunk);
+        let page_size = self.page_size as u64;
+        // COPY_SRC: a shuffled buffer living in these slots can be read back.
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::VERTEX
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
+        let alloc = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let page_bytes = self.encoding.position_bytes() * page_size;
+        let positions = alloc("positions", slots as u64 * page_bytes);
+        let colors = alloc("colours", slots as u64 * page_size * 4);
+        let fine = match self.encoding {
+            PointEncoding::Full16 => None,
+            PointEncoding::Compact8 => Some(alloc("fine positions", slots as u64 * page_size * 4)),
+        };
+        let dispatch = GpuDispatch {
+            first_slot,
+            list_offset: self.list_offsets.get(index as usize).copied().unwrap_or(0),
+            chunk: index,
+            slots,
+        };
+        let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dispatch"),
+            size: std::mem::size_of::<GpuDispatch>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM,
+            mapped_at_creation: true,
+        });
+        dispatch_buffer
+            .slice(..)
+            .get_mapped_range_mut()
+            .map_err(|e| GpuError::Validation(format!("writing a chunk's dispatch: {e}")))?
+            .copy_from_slice(bytemuck::bytes_of(&dispatch));
+        dispatch_buffer.unmap();
+        let mut entries = vec![
+            entry(0, &self.frame),
+            entry(1, &self.infos),
+            entry(2, &self.entries),
+            entry(3, &dispatch_buffer),
+            entry(4, &positions),
+            entry(6, &self.entry_counts),
+            entry(7, &colors),
+        ];
+        if let Some(f) = &fine {
+            entries.push(entry(5, f));
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("points"),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        Ok(PointChunk {
+            positions,
+            colors,
+            fine,
+            first_slot,
+            slots,
+            bind_group,
+            _dispatch: dispatch_buffer,
+        })
+    }
 }
 
 pub(crate) fn check_page_size(page_size: u32) -> Result<(), GpuError> {
@@ -279,93 +404,65 @@ impl PointStorage {
         total_slots: u32,
         draw: &DrawBuffers<'_>,
     ) -> Result<Self, GpuError> {
+        let per_chunk = Self::slots_per_chunk(ctx, encoding, page_size);
+        let (mut storage, maker) =
+            Self::planned(ctx, encoding, page_size, total_slots, draw, per_chunk)?;
+        for index in 0..maker.chunks() {
+            storage.chunks.push(maker.make_checked(index)?);
+        }
+        Ok(storage)
+    }
+
+    /// A storage of `total_slots` slots in chunks of `slots_per_chunk` (at most the device's
+    /// [`slots_per_chunk`](Self::slots_per_chunk)) without its chunks yet, and what makes
+    /// them; they must be pushed onto `chunks` in order.
+    pub fn planned(
+        ctx: &GpuContext,
+        encoding: PointEncoding,
+        page_size: u32,
+        total_slots: u32,
+        draw: &DrawBuffers<'_>,
+        slots_per_chunk: u32,
+    ) -> Result<(Self, ChunkMaker), GpuError> {
         check_page_size(page_size)?;
-        let device = &ctx.device;
-        let slots_per_chunk = Self::slots_per_chunk(ctx, encoding, page_size);
         let page_bytes = encoding.position_bytes() * page_size as u64;
         if page_bytes > ctx.caps.max_binding.min(ctx.caps.max_buffer) {
             return Err(GpuError::InvalidInput(format!(
                 "a page of {page_size} points ({page_bytes} bytes) exceeds the binding limit"
             )));
         }
-        let layout = point_group_layout(device, encoding);
-        let mut chunks = Vec::new();
-        let mut first_slot = 0u32;
-        while first_slot < total_slots.max(1) {
-            let slots = (total_slots.max(1) - first_slot).min(slots_per_chunk);
-            let chunk_index = chunks.len();
-            // COPY_SRC: a shuffled buffer living in these slots can be read back.
-            let usage = wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::VERTEX
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC;
-            let alloc = |label: &str, bytes: u64| {
-                ctx.checked("allocating GPU point memory", || {
-                    device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some(label),
-                        size: bytes,
-                        usage,
-                        mapped_at_creation: false,
-                    })
-                })
-            };
-            let positions = alloc("positions", slots as u64 * page_bytes)?;
-            let colors = alloc("colours", slots as u64 * page_size as u64 * 4)?;
-            let fine = match encoding {
-                PointEncoding::Full16 => None,
-                PointEncoding::Compact8 => Some(alloc(
-                    "fine positions",
-                    slots as u64 * page_size as u64 * 4,
-                )?),
-            };
-            let dispatch = GpuDispatch {
-                first_slot,
-                list_offset: draw.list_offsets.get(chunk_index).copied().unwrap_or(0),
-                chunk: chunk_index as u32,
-                slots,
-            };
-            let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("dispatch"),
-                size: std::mem::size_of::<GpuDispatch>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            ctx.queue
-                .write_buffer(&dispatch_buffer, 0, bytemuck::bytes_of(&dispatch));
-            let mut entries = vec![
-                entry(0, draw.frame),
-                entry(1, draw.infos),
-                entry(2, draw.entries),
-                entry(3, &dispatch_buffer),
-                entry(4, &positions),
-                entry(6, draw.entry_counts),
-                entry(7, &colors),
-            ];
-            if let Some(f) = &fine {
-                entries.push(entry(5, f));
-            }
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("points"),
-                layout: &layout,
-                entries: &entries,
-            });
-            chunks.push(PointChunk {
-                positions,
-                colors,
-                fine,
-                first_slot,
-                slots,
-                bind_group,
-                _dispatch: dispatch_buffer,
-            });
-            first_slot += slots;
+        let limit = Self::slots_per_chunk(ctx, encoding, page_size);
+        if slots_per_chunk == 0 || slots_per_chunk > limit {
+            return Err(GpuError::InvalidInput(format!(
+                "chunks of {slots_per_chunk} pages, where the binding limit allows 1 to {limit}"
+            )));
         }
-        Ok(Self {
+        let maker = ChunkMaker {
+            device: ctx.device.clone(),
+            layout: point_group_layout(&ctx.device, encoding),
+            frame: draw.frame.clone(),
+            infos: draw.infos.clone(),
+            entries: draw.entries.clone(),
+            entry_counts: draw.entry_counts.clone(),
+            list_offsets: draw.list_offsets.to_vec(),
             encoding,
             page_size,
             slots_per_chunk,
-            chunks,
-        })
+            total_slots,
+        };
+        let storage = Self {
+            encoding,
+            page_size,
+            slots_per_chunk,
+            chunks: Vec::new(),
+            planned: maker.chunks() as usize,
+        };
+        Ok((storage, maker))
+    }
+
+    /// Chunks the storage has once all are made.
+    pub fn planned_chunks(&self) -> usize {
+        self.planned
     }
 
     /// Chunks needed for `total_slots` slots on this device.

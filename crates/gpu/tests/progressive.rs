@@ -15,7 +15,7 @@ use pointlet_core::progressive::ShufflePermutation;
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_core::Camera;
 use pointlet_gpu::progressive::{
-    fill_ranges, ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState,
+    unit_ranges, ProgressiveCloud, ProgressiveRenderer, ProgressiveSettings, ProgressiveState,
 };
 use pointlet_gpu::shuffle::{EncodedBatch, ShufflePass};
 use pointlet_gpu::{
@@ -225,11 +225,29 @@ impl View {
 
 #[test]
 fn fill_ranges_wrap_at_the_end_and_cover_each_slot_once() {
-    assert_eq!(fill_ranges(10, 2, 5), [(2, 7), (0, 0)]);
-    assert_eq!(fill_ranges(10, 8, 5), [(8, 10), (0, 3)]);
-    assert_eq!(fill_ranges(10, 13, 4), [(3, 7), (0, 0)]);
-    assert_eq!(fill_ranges(10, 3, 25), [(3, 10), (0, 3)]);
-    assert_eq!(fill_ranges(0, 3, 5), [(0, 0), (0, 0)]);
+    // A unit of all N slots: the fill itself.
+    assert_eq!(unit_ranges(10, 10, 2, 5), [(2, 7), (0, 0)]);
+    assert_eq!(unit_ranges(10, 10, 8, 5), [(8, 10), (0, 3)]);
+    assert_eq!(unit_ranges(10, 10, 13, 4), [(3, 7), (0, 0)]);
+    assert_eq!(unit_ranges(10, 10, 3, 25), [(3, 10), (0, 3)]);
+    assert_eq!(unit_ranges(0, 10, 3, 5), [(0, 0), (0, 0)]);
+    // Units of 7 and 3 of N = 10 slots: each takes its share, consecutive fills tile it and
+    // a whole cycle covers it exactly once.
+    for (len, budget) in [(7u64, 3u32), (3, 3), (7, 4), (3, 10), (7, 1)] {
+        let mut hits = vec![0u32; len as usize];
+        let mut first = 0u32;
+        for _ in 0..10 {
+            for (a, b) in unit_ranges(10, len, first, budget) {
+                (a..b).for_each(|s| hits[s as usize] += 1);
+            }
+            first = (first + budget) % 10;
+        }
+        let expected = budget.min(10);
+        assert!(
+            hits.iter().all(|&h| h == expected),
+            "unit {len}, S {budget}: {hits:?}"
+        );
+    }
 }
 
 /// Frames of S = ⌈N / 5⌉ at a still camera: different from all points at once before the

@@ -1,14 +1,12 @@
 //! The GPU shuffle pass against the CPU permutation: batches scattered into a shuffled
-//! buffer land exactly where `ShufflePermutation::target` (or a store's `GroupInterleave`)
-//! puts them, and the shader's 32-bit
+//! buffer land exactly where `ShufflePermutation::target` (or a store's `GroupRows`) puts
+//! them, and the shader's 32-bit
 //! modular arithmetic is exact up to primes just below 2^32. Batches go through the queue or
 //! through mapped upload memory (`StagedBatch`), alternately.
 
 mod common;
 
-use pointlet_core::progressive::{
-    prime_3_mod_4_at_most, GroupInterleave, ShufflePermutation, SlotOrder,
-};
+use pointlet_core::progressive::{prime_3_mod_4_at_most, GroupRows, ShufflePermutation, SlotOrder};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
     montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents,
@@ -55,7 +53,9 @@ fn placed(
         colors: vec![0; slots],
     };
     for i in 0..loaded.colors.len() {
-        let t = order.target(i as u64) as usize;
+        let Some(t) = order.target(i as u64).map(|t| t as usize) else {
+            continue;
+        };
         if t >= slots {
             continue;
         }
@@ -176,24 +176,37 @@ fn batches_of_interleaved_groups_land_row_by_row() {
     let mut pass = ShufflePass::new(&ctx).unwrap();
     // Groups with a short last group (300 010 = 292 · 1024 + 1 002); batches that
     // start and end inside groups, cross chunk borders and outgrow the first staging; a
-    // buffer with every point, chunked, and one with fewer slots (later rows left out).
+    // buffer with every point and one with fewer slots (later rows left out), the order in
+    // one chunk over buffers of any size or in the buffers' chunks (whole groups each,
+    // slots left unused at their ends).
     let n = 300_010u32;
     let sizes = [1, 4_999, 100_000, 37, 70_000, 0];
-    // Groups of 1 024 permute single groups in a row, groups of 16 blocks of 16 groups.
-    let order = |group| SlotOrder::Interleaved(GroupInterleave::new(n as u64, group).unwrap());
-    for (encoding, slots, chunk_slots, order) in [
-        (PointEncoding::Full16, n, 70_001, order(1024)),
-        (PointEncoding::Compact8, n, u32::MAX, order(1024)),
-        (PointEncoding::Full16, 123_456, 50_000, order(1024)),
-        (PointEncoding::Full16, n, 70_001, order(16)),
-        (PointEncoding::Full16, 123_456, u32::MAX, order(16)),
+    // Groups of 1 024 permute single groups in a row, groups of 16 blocks of groups.
+    let rows = |group, max_slots| GroupRows::new(n as u64, group, max_slots).unwrap();
+    let whole = |g: GroupRows| (SlotOrder::Interleaved(g), None);
+    let chunked =
+        |g: GroupRows, cs: u64| (SlotOrder::Interleaved(g.chunked(cs).unwrap()), Some(cs));
+    for (encoding, (order, chunk_slots)) in [
+        (PointEncoding::Full16, whole(rows(1024, u64::MAX))),
+        (PointEncoding::Compact8, whole(rows(1024, u64::MAX))),
+        (PointEncoding::Full16, whole(rows(1024, 123_456))),
+        (PointEncoding::Full16, chunked(rows(16, u64::MAX), 70_000)),
+        (PointEncoding::Full16, chunked(rows(1024, 123_456), 50_000)),
+        (PointEncoding::Compact8, chunked(rows(16, 123_456), 40_000)),
+        (PointEncoding::Full16, whole(rows(16, 123_456))),
     ] {
-        if let SlotOrder::Interleaved(g) = order {
-            assert_eq!(g.block_shift(), if g.groups() > 1 << 14 { 4 } else { 0 });
-        }
-        let mut dst = ShuffledBuffer::with_chunk_slots(&ctx, encoding, slots, chunk_slots).unwrap();
+        let slots = order.physical_slots() as u32;
+        // Unchunked orders over buffers split anyway (the order's one chunk spans them).
+        let buffer_chunks = chunk_slots.unwrap_or(if encoding == PointEncoding::Full16 {
+            70_001
+        } else {
+            u64::from(u32::MAX)
+        });
+        let mut dst =
+            ShuffledBuffer::with_chunk_slots(&ctx, encoding, slots, buffer_chunks as u32).unwrap();
         dst.set_order(order).unwrap();
         assert_eq!((dst.slots(), dst.order()), (slots, order));
+        assert_eq!(dst.placed(), order.placed());
         let loaded = points(n, encoding, 7 + slots as u64);
         scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes);
         let got = dst.read(&ctx).unwrap();
@@ -201,12 +214,12 @@ fn batches_of_interleaved_groups_land_row_by_row() {
         let wrong = (0..slots as usize)
             .filter(|&s| got.colors[s] != want.colors[s])
             .count();
-        assert_eq!(wrong, 0, "{encoding:?} / {slots}: {wrong} slots differ");
-        assert!(got == want, "{encoding:?} / {slots}: the streams differ");
+        assert_eq!(wrong, 0, "{encoding:?} / {order:?}: {wrong} slots differ");
+        assert!(got == want, "{encoding:?} / {order:?}: the streams differ");
     }
-    // An order that places fewer points than the buffer has slots is refused.
+    // An order that spans fewer slots than the buffer has is refused.
     let mut small = ShuffledBuffer::new(&ctx, PointEncoding::Full16, 1000).unwrap();
-    let short = SlotOrder::Interleaved(GroupInterleave::new(999, 64).unwrap());
+    let short = SlotOrder::Interleaved(GroupRows::new(999, 64, u64::MAX).unwrap());
     assert!(matches!(
         small.set_order(short),
         Err(GpuError::InvalidInput(_))
