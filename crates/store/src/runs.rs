@@ -400,11 +400,12 @@ pub(crate) fn read_records(
     let file = run.open()?;
     let failed = |e| StoreError::io(&run.path, "reading a temporary run file", e);
     crate::pio::read_exact_at(&file, out, from * run.rb as u64).map_err(failed)?;
-    let mut raw = vec![0u8; keys.len() * KEY_BYTES];
-    crate::pio::read_exact_at(&file, &mut raw, run.keys_at() + from * KEY_BYTES as u64)
+    // Straight into the keys: no buffer to clear and convert from (a no-op on little-endian).
+    let raw: &mut [u8] = bytemuck::cast_slice_mut(keys);
+    crate::pio::read_exact_at(&file, raw, run.keys_at() + from * KEY_BYTES as u64)
         .map_err(failed)?;
-    for (k, b) in keys.iter_mut().zip(raw.chunks_exact(KEY_BYTES)) {
-        *k = u64::from_le_bytes(crate::format::array(b));
+    for k in keys.iter_mut() {
+        *k = u64::from_le(*k);
     }
     Ok(())
 }
