@@ -40,11 +40,6 @@ use std::collections::HashMap;
 /// cloud would be far too coarse).
 pub const ENCODING: PointEncoding = PointEncoding::Full16;
 
-/// Bytes of positions in one chunk of an interleaved (store's) buffer: the driver makes device
-/// memory at ~57 GB/s, so a chunk of 512 MiB of positions (~680 MiB with its colours) costs
-/// the frame that makes it ~12 ms, and a 1 G-point buffer comes in 23 of them.
-pub const CHUNK_BYTES: u64 = 512 << 20;
-
 /// A shuffled point buffer in page slots, drawn by the progressive passes. Batches are
 /// scattered into [`shuffled`](Self::shuffled) with [`crate::shuffle::ShufflePass`], their
 /// positions encoded (Full16) relative to [`origin`](Self::origin).
@@ -94,13 +89,14 @@ impl ProgressiveCloud {
         Self::with_order(ctx, order, bounds, page_size)
     }
 
-    /// Slots of one chunk of an interleaved buffer on this device
-    /// ([`GroupRows::chunked`](pointlet_core::progressive::GroupRows::chunked)): at most
-    /// [`CHUNK_BYTES`] of positions, so that making one costs a frame ~10 ms.
+    /// Slots of one chunk of the buffer on this device (the binding limit's): an
+    /// interleave's chunks must be as large
+    /// ([`GroupRows::chunked`](pointlet_core::progressive::GroupRows::chunked)). Smaller
+    /// chunks would be quicker to make, but the Fill pass dispatches once per chunk, and a
+    /// chunk of a store is one region of it: with 512 MiB chunks a 1 G-point store's fill took
+    /// 9.4 instead of 5.3 ms on the H100 (docs/BENCHMARKS.md, issue 11, session 45).
     pub fn chunk_slots(ctx: &GpuContext, page_size: u32) -> u64 {
-        let device = PointStorage::slots_per_chunk(ctx, ENCODING, page_size);
-        let pages = CHUNK_BYTES / (ENCODING.position_bytes() * page_size as u64);
-        (pages.clamp(1, device as u64)) * page_size as u64
+        PointStorage::slots_per_chunk(ctx, ENCODING, page_size) as u64 * page_size as u64
     }
 
     /// Room for the points `order` places inside `bounds`. An interleave's chunks after the
@@ -231,8 +227,10 @@ impl ProgressiveCloud {
         })
     }
 
-    /// Makes the next chunk of the buffer, if one is missing (its slots empty): one a frame,
-    /// ~10 ms, while the chunks before it are drawn. Batches for a chunk wait until it is made
+    /// Makes the next chunk of the buffer, if one is missing (its slots empty): one a frame
+    /// (the driver makes device memory at ~57 GB/s: ~45 ms for a 2.5 GiB chunk) while the
+    /// chunks before it are drawn; on the render thread, whose every buffer write would wait
+    /// for the allocator's lock anyway. Batches for a chunk wait until it is made
     /// ([`ShuffledBuffer::ready_for`]). Whether a chunk was made.
     pub fn make_next_chunk(&mut self, ctx: &GpuContext) -> Result<bool, GpuError> {
         let Some(maker) = &self.maker else {
