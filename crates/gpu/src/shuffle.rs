@@ -441,7 +441,7 @@ impl ShuffledBuffer {
     }
 
     /// Slots whose buffers are there (a prefix of the buffer).
-    pub fn installed_slots(&self) -> u64 {
+    fn installed_slots(&self) -> u64 {
         self.chunks
             .last()
             .map_or(0, |c| u64::from(c.first_slot) + u64::from(c.slots))
