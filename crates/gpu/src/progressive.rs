@@ -237,7 +237,14 @@ impl ProgressiveCloud {
             return Ok(false);
         };
         let index = self.storage.chunks.len() as u32;
-        let chunk = maker.make_checked(index)?;
+        let chunk = match maker.make_checked(index) {
+            Ok(chunk) => chunk,
+            Err(e) => {
+                // Reported once: the device had no room for the buffer it was opened with.
+                self.maker = None;
+                return Err(e);
+            }
+        };
         mark_empty(ctx, std::slice::from_ref(&chunk), self.page_size)?;
         self.shuffled.install(&chunk, self.page_size);
         self.storage.chunks.push(chunk);
