@@ -108,7 +108,7 @@ pub trait PartedSource: Sync {
     /// `Some(k)` when the points come in groups of k (a power of two; the last group may be
     /// shorter), each group in random order, so that the first points of a group are a uniform
     /// sample of it: a store's pointlets. A progressive loader may then interleave the groups
-    /// instead of permuting every point ([`crate::progressive::GroupInterleave`]).
+    /// instead of permuting every point ([`crate::progressive::GroupRows`]).
     fn shuffled_groups(&self) -> Option<u64> {
         None
     }
