@@ -307,26 +307,37 @@ impl GroupRows {
         group / self.per_chunk
     }
 
-    /// Chunk `c`: its first group and its slots.
-    pub fn chunk(&self, c: u64) -> Result<(u64, GroupInterleave), ShuffleError> {
+    /// Chunk `c`'s groups and the rows its last group keeps.
+    fn chunk_groups(&self, c: u64) -> (std::ops::Range<u64>, u64) {
         let first = (c * self.per_chunk).min(self.groups);
         let end = (first + self.per_chunk).min(self.groups);
         let last_rows = if end == self.groups {
-            self.last_size()
+            self.last_size().min(self.rows)
         } else {
             self.rows
         };
-        Ok((
-            first,
-            GroupInterleave::new(end - first, self.rows, last_rows)?,
-        ))
+        (first..end, last_rows)
+    }
+
+    /// Chunk `c`: its first group and its slots.
+    pub fn chunk(&self, c: u64) -> Result<(u64, GroupInterleave), ShuffleError> {
+        let (groups, last_rows) = self.chunk_groups(c);
+        let slots = GroupInterleave::new(groups.end - groups.start, self.rows, last_rows)?;
+        Ok((groups.start, slots))
+    }
+
+    /// The slots chunk `c` fills: from its start, one a point it keeps (without making its
+    /// permutation).
+    pub fn chunk_span(&self, c: u64) -> std::ops::Range<u64> {
+        let (groups, last_rows) = self.chunk_groups(c);
+        let start = c * self.chunk_slots;
+        let kept = (groups.end - groups.start).saturating_sub(1) * self.rows;
+        start..start + kept + if groups.is_empty() { 0 } else { last_rows }
     }
 
     /// Slots from the first chunk's start to the last one's end.
     pub fn physical_slots(&self) -> u64 {
-        let last = self.chunks() - 1;
-        let last_len = self.chunk(last).map_or(0, |(_, c)| c.len());
-        last * self.chunk_slots + last_len
+        self.chunk_span(self.chunks() - 1).end
     }
 
     /// The slot of point `i`, `None` when it is not kept.
@@ -758,6 +769,7 @@ mod tests {
             for c in 0..chunked.chunks() {
                 let (first, chunk) = chunked.chunk(c).unwrap();
                 let at = (c * chunk_slots) as usize;
+                assert_eq!(chunked.chunk_span(c), at as u64..at as u64 + chunk.len());
                 let filled = &slots[at..at + chunk.len() as usize];
                 assert!(filled.iter().all(|&i| {
                     let g = i as u64 / group;

@@ -24,8 +24,8 @@ use crate::shaders;
 use crate::shuffle::ShuffledBuffer;
 use crate::splat::{self, SplatMode, SplatSettings};
 use crate::storage::{
-    check_page_size, point_group_layout, ChunkMaker, DrawBuffers, GpuDrawEntry, GpuDrawInfo,
-    GpuFrame, PointChunk, PointEncoding, PointStorage,
+    check_page_size, chunks_of, point_group_layout, ChunkMaker, DrawBuffers, GpuDrawEntry,
+    GpuDrawInfo, GpuFrame, PointChunk, PointEncoding, PointStorage,
 };
 use crate::target::{map_read, RenderTarget};
 use crate::GpuError;
@@ -48,9 +48,9 @@ pub struct ProgressiveCloud {
     points: u32,
     /// Slots of the buffer (past `points` when an interleave's chunks leave some unused).
     physical: u32,
-    /// The stretches of slots each fill takes the same share of: (first slot, slots). One for a
-    /// permutation; a chunk each for an interleave, whose prefix is uniform within the chunk.
-    fill_units: Vec<(u64, u64)>,
+    /// The stretches of slots each fill takes the same share of. One for a permutation; a
+    /// chunk each for an interleave, whose prefix is uniform within the chunk.
+    fill_units: Vec<std::ops::Range<u64>>,
     /// What makes the chunks of the buffer not made yet.
     maker: Option<ChunkMaker>,
     page_size: u32,
@@ -121,7 +121,7 @@ impl ProgressiveCloud {
             )));
         }
         let fill_units = match order {
-            SlotOrder::Permuted(p) => vec![(0, p.len())],
+            SlotOrder::Permuted(p) => std::iter::once(0..p.len()).collect(),
             SlotOrder::Interleaved(g) => {
                 if g.chunks() > 1 && g.chunk_slots() % page_size as u64 != 0 {
                     return Err(GpuError::InvalidInput(format!(
@@ -130,12 +130,7 @@ impl ProgressiveCloud {
                         g.chunk_slots()
                     )));
                 }
-                (0..g.chunks())
-                    .map(|c| {
-                        let len = g.chunk(c).map_or(0, |(_, chunk)| chunk.len());
-                        (c * g.chunk_slots(), len)
-                    })
-                    .collect()
+                (0..g.chunks()).map(|c| g.chunk_span(c)).collect()
             }
         };
         let origin = if points > 0 { bounds.min } else { [0.0; 3] };
@@ -146,7 +141,7 @@ impl ProgressiveCloud {
             }
             _ => PointStorage::slots_per_chunk(ctx, ENCODING, page_size),
         };
-        let chunks = pages.max(1).div_ceil(per_chunk.max(1));
+        let chunks = chunks_of(pages, per_chunk);
         // A fill range and its wrapped rest are disjoint, so they share at most one page.
         let entry_stride = per_chunk.min(pages.max(1)) + 1;
         let device = &ctx.device;
@@ -200,7 +195,7 @@ impl ProgressiveCloud {
         let deferred = matches!(order, SlotOrder::Interleaved(_)) && maker.chunks() > 1;
         let made_now = if deferred { 1 } else { maker.chunks() };
         for index in 0..made_now {
-            storage.chunks.push(maker.make_checked(index)?);
+            storage.chunks.push(maker.make(ctx, index)?);
         }
         mark_empty(ctx, &storage.chunks, page_size)?;
         let mut shuffled = ShuffledBuffer::in_storage(&storage, physical)?;
@@ -237,7 +232,7 @@ impl ProgressiveCloud {
             return Ok(false);
         };
         let index = self.storage.chunks.len() as u32;
-        let chunk = match maker.make_checked(index) {
+        let chunk = match maker.make(ctx, index) {
             Ok(chunk) => chunk,
             Err(e) => {
                 // Reported once: the device had no room for the buffer it was opened with.
@@ -369,9 +364,10 @@ impl ProgressiveCloud {
         let chunks = self.storage.planned_chunks();
         let mut lists: Vec<Vec<GpuDrawEntry>> = vec![Vec::new(); chunks];
         let ps = self.page_size as u64;
-        for &(base, len) in &self.fill_units {
+        for unit in &self.fill_units {
+            let len = unit.end - unit.start;
             for (a, b) in unit_ranges(self.points, len, first, count) {
-                let (a, b) = (base + a, base + b);
+                let (a, b) = (unit.start + a, unit.start + b);
                 for page in a / ps..b.div_ceil(ps) {
                     let (lo, hi) = (a.max(page * ps), b.min((page + 1) * ps));
                     let chunk = (page / self.storage.slots_per_chunk as u64) as usize;

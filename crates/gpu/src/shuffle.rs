@@ -431,9 +431,8 @@ impl ShuffledBuffer {
             (_, 0) => return true,
             (SlotOrder::Interleaved(g), _) => {
                 let last = (first + count - 1) >> g.shift();
-                let c = g.chunk_of(last.min(g.groups().saturating_sub(1)));
-                let len = g.chunk(c).map_or(0, |(_, chunk)| chunk.len());
-                c * g.chunk_slots() + len
+                g.chunk_span(g.chunk_of(last.min(g.groups().saturating_sub(1))))
+                    .end
             }
             (SlotOrder::Permuted(_), _) => u64::from(self.slots),
         };
@@ -755,7 +754,7 @@ impl ShufflePass {
             ..Zeroable::zeroed()
         };
         // (uniform, threads, the physical slots the dispatch may write) per dispatch.
-        let mut work: Vec<(ShuffleUniform, u64, (u64, u64))> = Vec::new();
+        let mut work: Vec<(ShuffleUniform, u64, std::ops::Range<u64>)> = Vec::new();
         match (dst.order, slots) {
             // Interleaved groups: per chunk the batch touches, one thread per kept point of
             // the window of its groups, row by row.
@@ -775,7 +774,7 @@ impl ShufflePass {
                     let window = window_end - window_first;
                     let prime = chunk.blocks().prime() as u32;
                     let (neg_inv, r2) = montgomery_constants(prime);
-                    let chunk_base = c * g.chunk_slots();
+                    let span = g.chunk_span(c);
                     let uniform = ShuffleUniform {
                         prime,
                         neg_inv,
@@ -789,11 +788,10 @@ impl ShufflePass {
                         blocks: chunk.blocks().len() as u32,
                         rows: chunk.rows() as u32,
                         first_group: first_group as u32,
-                        chunk_base: chunk_base as u32,
+                        chunk_base: span.start as u32,
                         window_first: window_first as u32,
                         ..base
                     };
-                    let span = (chunk_base, chunk_base + chunk.len());
                     work.push((uniform, window * chunk.rows(), span));
                 }
             }
@@ -809,17 +807,17 @@ impl ShufflePass {
                     r2,
                     ..base
                 };
-                work.push((uniform, count, (0, u64::from(dst.slots))));
+                work.push((uniform, count, 0..u64::from(dst.slots)));
             }
         }
         ctx.checked("recording the shuffle pass", || {
             // One uniform and bind group per destination chunk a dispatch may write: each
             // dispatch sees its own.
             let mut groups = Vec::new();
-            for (uniform, threads, (lo, hi)) in &work {
+            for (uniform, threads, span) in &work {
                 for c in &dst.chunks {
                     let (start, end) = (c.first_slot as u64, c.first_slot as u64 + c.slots as u64);
-                    if end <= *lo || start >= *hi {
+                    if end <= span.start || start >= span.end {
                         continue;
                     }
                     let uniform = ShuffleUniform {

@@ -259,7 +259,6 @@ pub(crate) struct PointStorage {
 /// time, so that the first chunks can be drawn while the next are made (the driver makes
 /// device memory at ~57 GB/s, a third of a second for a 1 G-point buffer).
 pub(crate) struct ChunkMaker {
-    device: wgpu::Device,
     layout: wgpu::BindGroupLayout,
     frame: wgpu::Buffer,
     infos: wgpu::Buffer,
@@ -275,107 +274,85 @@ pub(crate) struct ChunkMaker {
 impl ChunkMaker {
     /// Chunks of the storage (an empty storage still gets a one-page chunk).
     pub fn chunks(&self) -> u32 {
-        self.total_slots.max(1).div_ceil(self.slots_per_chunk)
+        chunks_of(self.total_slots, self.slots_per_chunk)
     }
 
-    /// Chunk `index`'s buffers and bind group, with the device's errors in making them.
-    #[cfg(not(target_arch = "wasm32"))]
-    pub fn make_checked(&self, index: u32) -> Result<PointChunk, GpuError> {
-        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let made = self.make(index);
-        let v = pollster::block_on(validation.pop());
-        let o = pollster::block_on(oom.pop());
-        if let Some(e) = o {
-            return Err(GpuError::OutOfMemory(format!(
-                "allocating GPU point memory: {e}"
-            )));
-        }
-        if let Some(e) = v {
-            return Err(GpuError::Validation(format!(
-                "allocating GPU point memory: {e}"
-            )));
-        }
-        made
-    }
-
-    /// In a browser error scopes answer through promises, which cannot be waited for here:
-    /// errors surface through the uncaptured-error handler.
-    #[cfg(target_arch = "wasm32")]
-    pub fn make_checked(&self, index: u32) -> Result<PointChunk, GpuError> {
-        self.make(index)
-    }
-
-    fn make(&self, index: u32) -> Result<PointChunk, GpuError> {
-        let device = &self.device;
+    /// Chunk `index`'s buffers and bind group.
+    pub fn make(&self, ctx: &GpuContext, index: u32) -> Result<PointChunk, GpuError> {
+        let device = &ctx.device;
         let first_slot = index * self.slots_per_chunk;
         let slots = (self.total_slots.max(1) - first_slot).min(self.slots_per_chunk);
         let page_size = self.page_size as u64;
-        // COPY_SRC: a shuffled buffer living in these slots can be read back.
-        let usage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::VERTEX
-            | wgpu::BufferUsages::COPY_DST
-            | wgpu::BufferUsages::COPY_SRC;
-        let alloc = |label: &str, bytes: u64| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes,
-                usage,
+        ctx.checked("allocating GPU point memory", || {
+            // COPY_SRC: a shuffled buffer living in these slots can be read back.
+            let usage = wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::VERTEX
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC;
+            let alloc = |label: &str, bytes: u64| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes,
+                    usage,
+                    mapped_at_creation: false,
+                })
+            };
+            let page_bytes = self.encoding.position_bytes() * page_size;
+            let positions = alloc("positions", slots as u64 * page_bytes);
+            let colors = alloc("colours", slots as u64 * page_size * 4);
+            let fine = match self.encoding {
+                PointEncoding::Full16 => None,
+                PointEncoding::Compact8 => {
+                    Some(alloc("fine positions", slots as u64 * page_size * 4))
+                }
+            };
+            let dispatch = GpuDispatch {
+                first_slot,
+                list_offset: self.list_offsets.get(index as usize).copied().unwrap_or(0),
+                chunk: index,
+                slots,
+            };
+            let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("dispatch"),
+                size: std::mem::size_of::<GpuDispatch>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
-            })
-        };
-        let page_bytes = self.encoding.position_bytes() * page_size;
-        let positions = alloc("positions", slots as u64 * page_bytes);
-        let colors = alloc("colours", slots as u64 * page_size * 4);
-        let fine = match self.encoding {
-            PointEncoding::Full16 => None,
-            PointEncoding::Compact8 => Some(alloc("fine positions", slots as u64 * page_size * 4)),
-        };
-        let dispatch = GpuDispatch {
-            first_slot,
-            list_offset: self.list_offsets.get(index as usize).copied().unwrap_or(0),
-            chunk: index,
-            slots,
-        };
-        let dispatch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("dispatch"),
-            size: std::mem::size_of::<GpuDispatch>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM,
-            mapped_at_creation: true,
-        });
-        dispatch_buffer
-            .slice(..)
-            .get_mapped_range_mut()
-            .map_err(|e| GpuError::Validation(format!("writing a chunk's dispatch: {e}")))?
-            .copy_from_slice(bytemuck::bytes_of(&dispatch));
-        dispatch_buffer.unmap();
-        let mut entries = vec![
-            entry(0, &self.frame),
-            entry(1, &self.infos),
-            entry(2, &self.entries),
-            entry(3, &dispatch_buffer),
-            entry(4, &positions),
-            entry(6, &self.entry_counts),
-            entry(7, &colors),
-        ];
-        if let Some(f) = &fine {
-            entries.push(entry(5, f));
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("points"),
-            layout: &self.layout,
-            entries: &entries,
-        });
-        Ok(PointChunk {
-            positions,
-            colors,
-            fine,
-            first_slot,
-            slots,
-            bind_group,
-            _dispatch: dispatch_buffer,
+            });
+            ctx.queue
+                .write_buffer(&dispatch_buffer, 0, bytemuck::bytes_of(&dispatch));
+            let mut entries = vec![
+                entry(0, &self.frame),
+                entry(1, &self.infos),
+                entry(2, &self.entries),
+                entry(3, &dispatch_buffer),
+                entry(4, &positions),
+                entry(6, &self.entry_counts),
+                entry(7, &colors),
+            ];
+            if let Some(f) = &fine {
+                entries.push(entry(5, f));
+            }
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("points"),
+                layout: &self.layout,
+                entries: &entries,
+            });
+            PointChunk {
+                positions,
+                colors,
+                fine,
+                first_slot,
+                slots,
+                bind_group,
+                _dispatch: dispatch_buffer,
+            }
         })
     }
+}
+
+/// Chunks of `per_chunk` slots that `total_slots` slots take (at least one).
+pub(crate) fn chunks_of(total_slots: u32, per_chunk: u32) -> u32 {
+    total_slots.max(1).div_ceil(per_chunk.max(1))
 }
 
 pub(crate) fn check_page_size(page_size: u32) -> Result<(), GpuError> {
@@ -408,7 +385,7 @@ impl PointStorage {
         let (mut storage, maker) =
             Self::planned(ctx, encoding, page_size, total_slots, draw, per_chunk)?;
         for index in 0..maker.chunks() {
-            storage.chunks.push(maker.make_checked(index)?);
+            storage.chunks.push(maker.make(ctx, index)?);
         }
         Ok(storage)
     }
@@ -438,7 +415,6 @@ impl PointStorage {
             )));
         }
         let maker = ChunkMaker {
-            device: ctx.device.clone(),
             layout: point_group_layout(&ctx.device, encoding),
             frame: draw.frame.clone(),
             infos: draw.infos.clone(),
@@ -472,9 +448,7 @@ impl PointStorage {
         page_size: u32,
         total_slots: u32,
     ) -> u32 {
-        total_slots
-            .max(1)
-            .div_ceil(Self::slots_per_chunk(ctx, encoding, page_size))
+        chunks_of(total_slots, Self::slots_per_chunk(ctx, encoding, page_size))
     }
 
     /// The chunk holding `slot` and the index of the slot's point `first` in its buffers.
