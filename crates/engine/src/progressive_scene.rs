@@ -252,9 +252,11 @@ impl ProgressiveScene {
         }
         let meta_bounds = load.bounds();
         let started = Instant::now();
-        // A store's chunks are the buffer's: each is drawn once it is made and loaded.
+        // Where the device makes memory slowly, a store's pointlets go chunk by chunk, each
+        // drawn once it is made and loaded; else they interleave over the whole buffer, made
+        // before the first frame, so that every fill draws a sample of the whole store.
         let order = match load.order() {
-            SlotOrder::Interleaved(g) => g
+            SlotOrder::Interleaved(g) if !ctx.caps.direct_memory => g
                 .chunked(ProgressiveCloud::chunk_slots(ctx, config.page_size))
                 .map(SlotOrder::Interleaved)
                 .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?,

@@ -340,44 +340,58 @@ fn a_still_camera_converges_to_drawing_every_point_for_every_file_kind() {
 }
 
 #[test]
-fn a_store_drawn_while_its_buffer_is_made_converges_to_every_point() {
-    let mut ctx = context();
-    // Buffers of 5 pages of 1 024 slots: pointlets of 128 points, 40 to a chunk, 8 chunks,
-    // all but the first made on the memory thread while frames are drawn.
-    ctx.caps.max_binding = 1024 * 12 * 5;
-    let dir = tempfile::tempdir().unwrap();
-    let las = dir.path().join("t.las");
-    write_las(&las, &terrain(), false);
-    let store = dir.path().join("t.pointlet");
-    write_store(&store, &las);
-    let variant = RasterVariant::AtomicMin;
-    let mut scene = ProgressiveScene::open(&ctx, &store, config(variant, 7_777)).unwrap();
-    assert_eq!(scene.slots(), N as u64);
-    let (made, chunks) = scene.buffer_chunks();
-    assert_eq!((made, chunks), (1, 8));
-    let mut target = RenderTarget::new(&ctx, W, H).unwrap();
-    for _ in 0..3 {
-        frame(&ctx, &mut scene, &moved(), &mut target);
+fn a_store_in_several_buffers_converges_to_every_point() {
+    let probe = context();
+    // The memory comes from Vulkan directly on lavapipe, as on the GPU machine.
+    assert!(probe.caps.direct_memory, "no direct point memory on Vulkan");
+    for direct in [false, true] {
+        let mut ctx = context();
+        // Buffers of 5 pages of 1 024 slots: pointlets of 128 points, 40 to a chunk, 8 chunks.
+        // Through wgpu all but the first are made while frames are drawn; directly, all at once,
+        // the pointlets interleaved over all of them.
+        ctx.caps.max_binding = 1024 * 12 * 5;
+        ctx.caps.direct_memory = direct;
+        let dir = tempfile::tempdir().unwrap();
+        let las = dir.path().join("t.las");
+        write_las(&las, &terrain(), false);
+        let store = dir.path().join("t.pointlet");
+        write_store(&store, &las);
+        let variant = RasterVariant::AtomicMin;
+        let mut scene = ProgressiveScene::open(&ctx, &store, config(variant, 7_777)).unwrap();
+        assert_eq!(scene.slots(), N as u64);
+        let made = scene.buffer_chunks();
+        assert_eq!(made.0, if direct { made.1 } else { 1 }, "direct {direct}");
+        assert!(made.1 > 1, "{made:?}");
+        let mut target = RenderTarget::new(&ctx, W, H).unwrap();
+        for _ in 0..3 {
+            frame(&ctx, &mut scene, &moved(), &mut target);
+        }
+        converge(&ctx, &mut scene, &camera(), &mut target);
+        assert_eq!(scene.buffer_chunks(), (made.1, made.1));
+        let got = Image {
+            rgba: target.read_rgba(&ctx).unwrap(),
+            depth: target.read_depth(&ctx).unwrap(),
+        };
+        let want = static_image(&ctx, &store, &scene, variant, &camera());
+        assert!(lit(&want.rgba) > (W * H / 4) as usize);
+        assert!(
+            got.depth == want.depth,
+            "direct {direct}: the converged depths differ"
+        );
+        let differ = differing(&got.rgba, &want.rgba);
+        assert!(
+            differ == 0,
+            "direct {direct}: {differ} pixels differ in colour"
+        );
+        // Every point is in a slot (a chunk's unused slots stay empty).
+        let (contents, _) = scene.read_buffer(&ctx).unwrap();
+        let filled = contents
+            .positions
+            .chunks(3)
+            .filter(|w| w[0] != u32::MAX)
+            .count();
+        assert_eq!(filled, N, "direct {direct}");
     }
-    converge(&ctx, &mut scene, &camera(), &mut target);
-    assert_eq!(scene.buffer_chunks(), (8, 8));
-    let got = Image {
-        rgba: target.read_rgba(&ctx).unwrap(),
-        depth: target.read_depth(&ctx).unwrap(),
-    };
-    let want = static_image(&ctx, &store, &scene, variant, &camera());
-    assert!(lit(&want.rgba) > (W * H / 4) as usize);
-    assert!(got.depth == want.depth, "the converged depths differ");
-    let differ = differing(&got.rgba, &want.rgba);
-    assert!(differ == 0, "{differ} pixels differ in colour");
-    // Every chunk's slots hold points of its own pointlets (the rest of a chunk stays empty).
-    let (contents, _) = scene.read_buffer(&ctx).unwrap();
-    let filled = contents
-        .positions
-        .chunks(3)
-        .filter(|w| w[0] != u32::MAX)
-        .count();
-    assert_eq!(filled, N);
 }
 
 #[test]

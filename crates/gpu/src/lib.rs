@@ -5,6 +5,11 @@
 mod bandwidth;
 mod cloud;
 mod context;
+#[cfg_attr(
+    any(target_arch = "wasm32", target_vendor = "apple"),
+    path = "device_memory_none.rs"
+)]
+mod device_memory;
 mod frame;
 mod graph;
 mod hw_points;

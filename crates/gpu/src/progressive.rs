@@ -94,15 +94,16 @@ impl ProgressiveCloud {
     /// ([`GroupRows::chunked`](pointlet_core::progressive::GroupRows::chunked)). Smaller
     /// chunks would be quicker to make, but the Fill pass dispatches once per chunk, and a
     /// chunk of a store is one region of it: with 512 MiB chunks a 1 G-point store's fill took
-    /// 9.4 instead of 5.3 ms on the H100 (docs/BENCHMARKS.md, issue 11, session 45).
+    /// 9.4 instead of 5.3 ms on the H100 (docs/BENCHMARKS.md, issue 11, session 45); with
+    /// chunks of the binding limit, 6.0 against 5.2 ms for the whole store interleaved.
     pub fn chunk_slots(ctx: &GpuContext, page_size: u32) -> u64 {
         PointStorage::slots_per_chunk(ctx, ENCODING, page_size) as u64 * page_size as u64
     }
 
-    /// Room for the points `order` places inside `bounds`. An interleave's chunks after the
-    /// first are made a frame at a time while the first ones are drawn
-    /// ([`make_next_chunk`](Self::make_next_chunk)); a permutation's all at once (its batches
-    /// go to every chunk).
+    /// Room for the points `order` places inside `bounds`. Where the device makes memory
+    /// slowly, an interleave in chunks has its chunks after the first made a frame at a time
+    /// while the first ones are drawn ([`make_next_chunk`](Self::make_next_chunk)); else, and
+    /// for a permutation (its batches go to every chunk), all are made now.
     pub fn with_order(
         ctx: &GpuContext,
         order: SlotOrder,
@@ -192,7 +193,10 @@ impl ProgressiveCloud {
             },
             per_chunk,
         )?;
-        let deferred = matches!(order, SlotOrder::Interleaved(_)) && maker.chunks() > 1;
+        // Chunks of an interleave are made one a frame unless the device makes them quickly.
+        let deferred = matches!(order, SlotOrder::Interleaved(g) if g.chunks() > 1)
+            && !ctx.caps.direct_memory
+            && maker.chunks() > 1;
         let made_now = if deferred { 1 } else { maker.chunks() };
         for index in 0..made_now {
             storage.chunks.push(maker.make(ctx, index)?);
@@ -223,9 +227,8 @@ impl ProgressiveCloud {
     }
 
     /// Makes the next chunk of the buffer, if one is missing (its slots empty): one a frame
-    /// (the driver makes device memory at ~57 GB/s: ~45 ms for a 2.5 GiB chunk) while the
-    /// chunks before it are drawn; on the render thread, whose every buffer write would wait
-    /// for the allocator's lock anyway. Batches for a chunk wait until it is made
+    /// while the chunks before it are drawn, where the device makes memory slowly (through
+    /// wgpu, ~60 ms for a 2.5 GiB chunk). Batches for a chunk wait until it is made
     /// ([`ShuffledBuffer::ready_for`]). Whether a chunk was made.
     pub fn make_next_chunk(&mut self, ctx: &GpuContext) -> Result<bool, GpuError> {
         let Some(maker) = &self.maker else {
