@@ -66,6 +66,9 @@ struct Summary<'a> {
     upload_bytes: u64,
     upload_write_gbs: f64,
     upload_copy_gbs: f64,
+    /// The same from host memory (system RAM the GPU reads over the bus), where there is such.
+    upload_host_write_gbs: Option<f64>,
+    upload_host_copy_gbs: Option<f64>,
     /// Batches staged in newly mapped upload memory, and in reused memory.
     staged_new: u64,
     staged_reused: u64,
@@ -314,6 +317,12 @@ pub fn run(args: &Args) -> Result<()> {
         upload.copy_gbs,
         progress.points_per_s() * 16.0 / 1e9
     );
+    if let (Some(w), Some(c)) = (upload.host_write_gbs, upload.host_copy_gbs) {
+        println!(
+            "from host memory instead: threads write it at {w:.1} GB/s, the GPU pulls it over \
+             the bus at {c:.1} GB/s"
+        );
+    }
     if let Some(p) = &args.plot {
         write_plot(p, &rows)?;
     }
@@ -341,6 +350,8 @@ pub fn run(args: &Args) -> Result<()> {
             upload_bytes: upload.bytes,
             upload_write_gbs: upload.write_gbs,
             upload_copy_gbs: upload.copy_gbs,
+            upload_host_write_gbs: upload.host_write_gbs,
+            upload_host_copy_gbs: upload.host_copy_gbs,
             staged_new: progress.staged_new,
             staged_reused: progress.staged_reused,
             open_passes_s: open.passes.as_secs_f64(),

@@ -2,6 +2,7 @@
 //! process as the rasterizers so their GB/s can be put in proportion.
 
 use crate::context::GpuContext;
+use crate::device_memory::DirectAllocator;
 use crate::raster::grid;
 use crate::shaders;
 use crate::shuffle::StagedRegion;
@@ -127,6 +128,11 @@ pub struct UploadBandwidth {
     pub write_gbs: f64,
     /// Median GB/s of the GPU copying them into a device buffer (wall time, submit to done).
     pub copy_gbs: f64,
+    /// The other way over the bus: median GB/s of every rayon thread writing host memory
+    /// (system RAM the GPU reads), and of the GPU copying it into a device buffer. `None`
+    /// where the device has no such memory or it cannot be made outside wgpu.
+    pub host_write_gbs: Option<f64>,
+    pub host_copy_gbs: Option<f64>,
 }
 
 /// Measures [`UploadBandwidth`] with `bytes` in buffers of `chunk` bytes, over `runs` runs.
@@ -211,9 +217,66 @@ pub fn upload_bandwidth(
         v.sort_by(f64::total_cmp);
         bytes as f64 / v[v.len() / 2].max(1e-9) / 1e9
     };
+    let host = host_bandwidth(ctx, &dst, chunk, chunks, runs, &pattern)?;
     Ok(UploadBandwidth {
         bytes,
         write_gbs: median(writes),
         copy_gbs: median(copies),
+        host_write_gbs: host.as_ref().map(|t| median(t.writes.clone())),
+        host_copy_gbs: host.map(|t| median(t.copies)),
     })
+}
+
+/// Seconds of the threads writing `chunks` host buffers of `chunk` bytes and of the GPU
+/// copying them into `dst`, a warm-up run and `runs` more; `None` without such memory.
+fn host_bandwidth(
+    ctx: &GpuContext,
+    dst: &wgpu::Buffer,
+    chunk: u64,
+    chunks: u64,
+    runs: u32,
+    pattern: &[u8],
+) -> Result<Option<RunTimes>, GpuError> {
+    use rayon::prelude::*;
+    let Some(alloc) = ctx
+        .caps
+        .direct_memory
+        .then(|| DirectAllocator::new(&ctx.device))
+        .flatten()
+    else {
+        return Ok(None);
+    };
+    let mut staged = Vec::new();
+    for _ in 0..chunks {
+        match alloc.host_buffer("host upload memory", chunk, wgpu::BufferUsages::COPY_SRC)? {
+            Some(b) => staged.push(b),
+            None => return Ok(None),
+        }
+    }
+    let (mut writes, mut copies) = (Vec::new(), Vec::new());
+    for _ in 0..runs.max(1) + 1 {
+        let started = web_time::Instant::now();
+        staged.par_iter_mut().for_each(|b| {
+            b.bytes().par_chunks_mut(pattern.len()).for_each(|piece| {
+                let len = piece.len();
+                piece.copy_from_slice(&pattern[..len]);
+            })
+        });
+        writes.push(started.elapsed().as_secs_f64());
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        for b in &staged {
+            enc.copy_buffer_to_buffer(b.buffer(), 0, dst, 0, chunk);
+        }
+        let started = web_time::Instant::now();
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        copies.push(started.elapsed().as_secs_f64());
+    }
+    Ok(Some(RunTimes { writes, copies }))
+}
+
+/// Seconds of each run's writes and copies.
+struct RunTimes {
+    writes: Vec<f64>,
+    copies: Vec<f64>,
 }

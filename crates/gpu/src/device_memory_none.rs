@@ -19,3 +19,26 @@ impl DirectAllocator {
         match *self {}
     }
 }
+
+impl DirectAllocator {
+    pub fn host_buffer(
+        &self,
+        _label: &str,
+        _size: u64,
+        _usage: wgpu::BufferUsages,
+    ) -> Result<Option<HostBuffer>, GpuError> {
+        match *self {}
+    }
+}
+
+pub(crate) enum HostBuffer {}
+
+impl HostBuffer {
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        match *self {}
+    }
+
+    pub fn bytes(&mut self) -> &mut [u8] {
+        match *self {}
+    }
+}
