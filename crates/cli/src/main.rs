@@ -96,6 +96,11 @@ fn quiet_device_select() {
 fn main() -> ExitCode {
     default_sigpipe();
     quiet_device_select();
+    // Named, so that profiles and thread samples tell the pool from the other threads; a pool
+    // already built (never, here) keeps its names.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .thread_name(|i| format!("pool-{i}"))
+        .build_global();
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     if let Some((name, sub)) = matches.subcommand() {
