@@ -284,7 +284,23 @@ impl ChunkMaker {
     /// Chunk `index`'s buffers and bind group.
     pub fn make(&self, ctx: &GpuContext, index: u32) -> Result<PointChunk, GpuError> {
         let memory = match &self.direct {
-            Some(d) => self.memory(index, |label, bytes| d.buffer(label, bytes, CHUNK_USAGE))?,
+            Some(d) => {
+                let memory =
+                    self.memory(index, |label, bytes| d.buffer(label, bytes, CHUNK_USAGE))?;
+                // Zeroed as wgpu's own buffers are (memory made directly comes as the driver
+                // leaves it): ~5 ms of the GPU for 15 GiB on the H100.
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                let ChunkMemory {
+                    positions,
+                    colors,
+                    fine,
+                } = &memory;
+                for b in [positions, colors].into_iter().chain(fine) {
+                    enc.clear_buffer(b, 0, None);
+                }
+                ctx.queue.submit([enc.finish()]);
+                memory
+            }
             None => ctx.checked("allocating GPU point memory", || {
                 self.memory(index, |label, bytes| {
                     Ok(ctx.device.create_buffer(&wgpu::BufferDescriptor {
