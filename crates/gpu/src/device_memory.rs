@@ -31,8 +31,8 @@ impl DirectAllocator {
         })
     }
 
-    /// A buffer of `size` bytes in device memory (contents undefined) for `usage`, which must
-    /// not ask for mapping.
+    /// A buffer of `size` bytes in device memory (contents undefined: zero it before reading)
+    /// for `usage`, which must not ask for mapping.
     pub fn buffer(
         &self,
         label: &str,
@@ -146,7 +146,7 @@ impl DirectAllocator {
             mapped_at_creation: false,
         };
         // SAFETY: made by this device for `desc`'s size and usage; wgpu takes the contents as
-        // they are (every user of these buffers writes what it reads).
+        // they are (point memory is zeroed by its maker, host memory written before use).
         unsafe {
             self.device
                 .create_buffer_from_hal::<wgpu::hal::api::Vulkan>(hal, &desc)
