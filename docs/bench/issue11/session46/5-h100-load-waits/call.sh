@@ -3,7 +3,7 @@
 # 1 G lean store do while it streams at 26-27 GB/s against the bus's ~33 (issue 11, PCIe
 # speed). Every thread's state and kernel wait function every 10 ms
 # (docs/bench/issue15/session46/1-h100-cpu-timeline/waits.py; the pool's threads are `pool-N`,
-# the loader's `point-load` / `point-batch`), cut at 15 % of the run (about the load's end),
+# the loader's `point-load` / `point-batch`), cut at 30 % of the run (about the load's end: adjust from the bench output),
 # two rounds, then the CPU share timeline (sample.py).
 # Binary: .dev/pointlet.xz, a build of 26584e6 or later (`cargo build --release -p pointlet`,
 # `objcopy --strip-debug`, `xz -6`).
@@ -22,7 +22,7 @@ timeout 180 /tmp/p generate --points 1G --lean -o $W/s1g.pointlet 2>&1 | tail -1
 sync; sleep 1; cat $W/s1g.pointlet > /dev/null
 B="/tmp/p bench $W/s1g.pointlet --progressive --realtime --target-fps 60 --orbit-seconds 2 --vram-budget 24GiB"
 for r in 1 2; do
-  echo "== waits-$r"; timeout 100 python3 $T/waits.py 0.15 $B
+  echo "== waits-$r"; timeout 100 python3 $T/waits.py 0.3 $B
 done
 echo "== cpu"; timeout 100 python3 $T/sample.py $B
 echo "at $SECONDS s"
