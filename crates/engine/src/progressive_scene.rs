@@ -255,12 +255,15 @@ impl ProgressiveScene {
         // Where the device makes memory slowly, a store's pointlets go chunk by chunk, each
         // drawn once it is made and loaded; else they interleave over the whole buffer, made
         // before the first frame, so that every fill draws a sample of the whole store.
-        let order = match load.order() {
-            SlotOrder::Interleaved(g) if !ctx.caps.direct_memory => g
-                .chunked(ProgressiveCloud::chunk_slots(ctx, config.page_size))
+        let order = match (
+            load.order(),
+            ProgressiveCloud::chunk_slots(ctx, config.page_size),
+        ) {
+            (SlotOrder::Interleaved(g), Some(chunk_slots)) => g
+                .chunked(chunk_slots)
                 .map(SlotOrder::Interleaved)
                 .map_err(|e| EngineError::Config(format!("{}: {e}", path.display())))?,
-            order => order,
+            (order, _) => order,
         };
         let cloud = ProgressiveCloud::with_order(ctx, order, meta_bounds, config.page_size)?;
         let buffers = started.elapsed();

@@ -2,7 +2,6 @@
 //! process as the rasterizers so their GB/s can be put in proportion.
 
 use crate::context::GpuContext;
-use crate::device_memory::DirectAllocator;
 use crate::raster::grid;
 use crate::shaders;
 use crate::shuffle::StagedRegion;
@@ -217,13 +216,17 @@ pub fn upload_bandwidth(
         v.sort_by(f64::total_cmp);
         bytes as f64 / v[v.len() / 2].max(1e-9) / 1e9
     };
-    let host = host_bandwidth(ctx, &dst, chunk, chunks, runs, &pattern)?;
+    let (host_write_gbs, host_copy_gbs) =
+        match host_bandwidth(ctx, &dst, chunk, chunks, runs, &pattern)? {
+            Some(t) => (Some(median(t.writes)), Some(median(t.copies))),
+            None => (None, None),
+        };
     Ok(UploadBandwidth {
         bytes,
         write_gbs: median(writes),
         copy_gbs: median(copies),
-        host_write_gbs: host.as_ref().map(|t| median(t.writes.clone())),
-        host_copy_gbs: host.map(|t| median(t.copies)),
+        host_write_gbs,
+        host_copy_gbs,
     })
 }
 
@@ -238,12 +241,7 @@ fn host_bandwidth(
     pattern: &[u8],
 ) -> Result<Option<RunTimes>, GpuError> {
     use rayon::prelude::*;
-    let Some(alloc) = ctx
-        .caps
-        .direct_memory
-        .then(|| DirectAllocator::new(&ctx.device))
-        .flatten()
-    else {
+    let Some(alloc) = ctx.direct_allocator() else {
         return Ok(None);
     };
     let mut staged = Vec::new();

@@ -264,6 +264,15 @@ impl GpuContext {
             .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e}")))
     }
 
+    /// What makes point memory directly, where the device allows
+    /// ([`Capabilities::direct_memory`]).
+    pub(crate) fn direct_allocator(&self) -> Option<crate::device_memory::DirectAllocator> {
+        self.caps
+            .direct_memory
+            .then(|| crate::device_memory::DirectAllocator::new(&self.device))
+            .flatten()
+    }
+
     /// Runs `f` and returns the first validation or out-of-memory error it raised.
     #[cfg(not(target_arch = "wasm32"))]
     pub fn checked<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {

@@ -89,21 +89,27 @@ impl ProgressiveCloud {
         Self::with_order(ctx, order, bounds, page_size)
     }
 
-    /// Slots of one chunk of the buffer on this device (the binding limit's): an
+    /// Slots of one chunk of a store's interleave on this device (the binding limit's), or
+    /// `None` where its memory is made quickly ([`Capabilities::direct_memory`]) and the
+    /// pointlets interleave over the whole buffer, made before the first frame. An
     /// interleave's chunks must be as large
     /// ([`GroupRows::chunked`](pointlet_core::progressive::GroupRows::chunked)). Smaller
     /// chunks would be quicker to make, but the Fill pass dispatches once per chunk, and a
     /// chunk of a store is one region of it: with 512 MiB chunks a 1 G-point store's fill took
     /// 9.4 instead of 5.3 ms on the H100 (docs/BENCHMARKS.md, issue 11, session 45); with
     /// chunks of the binding limit, 6.0 against 5.2 ms for the whole store interleaved.
-    pub fn chunk_slots(ctx: &GpuContext, page_size: u32) -> u64 {
-        PointStorage::slots_per_chunk(ctx, ENCODING, page_size) as u64 * page_size as u64
+    ///
+    /// [`Capabilities::direct_memory`]: crate::Capabilities::direct_memory
+    pub fn chunk_slots(ctx: &GpuContext, page_size: u32) -> Option<u64> {
+        (!ctx.caps.direct_memory).then(|| {
+            PointStorage::slots_per_chunk(ctx, ENCODING, page_size) as u64 * page_size as u64
+        })
     }
 
-    /// Room for the points `order` places inside `bounds`. Where the device makes memory
-    /// slowly, an interleave in chunks has its chunks after the first made a frame at a time
-    /// while the first ones are drawn ([`make_next_chunk`](Self::make_next_chunk)); else, and
-    /// for a permutation (its batches go to every chunk), all are made now.
+    /// Room for the points `order` places inside `bounds`. An interleave in chunks
+    /// ([`chunk_slots`](Self::chunk_slots)) has its chunks after the first made a frame at a
+    /// time while the first ones are drawn ([`make_next_chunk`](Self::make_next_chunk)); any
+    /// other order's are all made now (a permutation's batches go to every chunk).
     pub fn with_order(
         ctx: &GpuContext,
         order: SlotOrder,
@@ -193,10 +199,8 @@ impl ProgressiveCloud {
             },
             per_chunk,
         )?;
-        // Chunks of an interleave are made one a frame unless the device makes them quickly.
-        let deferred = matches!(order, SlotOrder::Interleaved(g) if g.chunks() > 1)
-            && !ctx.caps.direct_memory
-            && maker.chunks() > 1;
+        let deferred =
+            matches!(order, SlotOrder::Interleaved(g) if g.chunks() > 1) && maker.chunks() > 1;
         let made_now = if deferred { 1 } else { maker.chunks() };
         for index in 0..made_now {
             storage.chunks.push(maker.make(ctx, index)?);

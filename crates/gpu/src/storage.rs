@@ -489,11 +489,7 @@ impl PointStorage {
             page_size,
             slots_per_chunk,
             total_slots,
-            direct: ctx
-                .caps
-                .direct_memory
-                .then(|| DirectAllocator::new(&ctx.device))
-                .flatten(),
+            direct: ctx.direct_allocator(),
         };
         let storage = Self {
             encoding,
