@@ -290,10 +290,8 @@ struct ShuffledChunk {
 
 /// A point buffer of n slots that batches are shuffled into: point i goes to slot
 /// `order.target(i)`, or is left out when it has none or that lies past the slots. Its
-/// buffers may come later than the buffer itself (a store's chunks, [`install`]ed as they are
+/// buffers may come later than the buffer itself (a store's chunks, installed as they are
 /// made): batches for slots of missing buffers must wait ([`ready_for`](Self::ready_for)).
-///
-/// [`install`]: ShuffledBuffer::install
 pub struct ShuffledBuffer {
     encoding: PointEncoding,
     slots: u32,
