@@ -2,7 +2,7 @@
 
 use crate::emit::{EmitPlan, Emitter, RecordLayout, Source};
 use crate::format::{self, Plan, Preamble, StoreHeader, PREAMBLE_LEN, VERSION};
-use crate::runs::{self, Bucketing, Run, RunFile, Spiller};
+use crate::runs::{self, Bucketing, Cell, PartBuckets, Run, RunFile, Spiller};
 use crate::sort::Pair;
 use crate::spilled::{GroupSettings, GroupSorter};
 use crate::{meta, pio, pointlet_size, sort, StoreError};
@@ -115,7 +115,8 @@ pub struct BuildTimings {
 pub struct SpillTimings {
     /// The time filling waited for a spilling thread to take the full run (reading stage).
     pub waited: std::time::Duration,
-    /// Putting runs in bucket order, added over the runs (each uses every core it gets).
+    /// Putting runs in bucket order, added over the runs (moving the cells the decoding tasks
+    /// made, or scattering a run made otherwise on every core it gets).
     pub bucketing: std::time::Duration,
     /// Gathering runs into bucket order and writing them, added over the runs.
     pub writing: std::time::Duration,
@@ -438,15 +439,23 @@ impl StoreBuilder {
             jobs.push((part, at, r, p));
             (recs, pairs, at) = (rest_r, rest_p, at + size);
         }
+        // Where runs spill, each part is put in bucket order here, on the pool, and the
+        // spilling thread only moves whole cells (`runs::bucket_run`).
+        let bucketing = self.overlap.then(Bucketing::top);
+        if n0 == 0 {
+            self.run.cells = bucketing.map(|_| self.run.cells.take().unwrap_or_default());
+        } else if bucketing.is_none() {
+            self.run.cells = None;
+        }
         let (q, grid, rl, want) = (self.quantization, self.grid, &self.rl, self.layout);
         let (pushed, claimed, progress) = (self.pushed, self.claimed, &self.progress);
         let output = &self.output;
         let done = AtomicU64::new(0);
-        let results: Vec<Result<RawBounds, StoreError>> = jobs
+        let results: Vec<Result<(RawBounds, Vec<Cell>), StoreError>> = jobs
             .into_par_iter()
             .map_init(
-                || (PointBatch::default(), Vec::new()),
-                |(batch, scratch), (part, at, recs, pairs)| {
+                || (PointBatch::default(), Vec::new(), PartBuckets::default()),
+                |(batch, scratch, tables), (part, at, recs, pairs)| {
                     let (recs, pairs) = (zeroed_in_place(recs), zeroed_in_place(pairs));
                     // Parts that store positions as integers of the store's quantization decode
                     // straight into their rows: no f64 round trip, no columns in between.
@@ -484,21 +493,28 @@ impl StoreBuilder {
                             total: claimed.max(now),
                         });
                     }
-                    Ok(bounds)
+                    let mut cells = Vec::new();
+                    if let Some(b) = bucketing {
+                        runs::bucket_part(pairs, b, tables, &mut cells);
+                    }
+                    Ok((bounds, cells))
                 },
             )
             .collect();
-        let bounds = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
         // SAFETY: every part zeroed and then filled its slices, which tile the `total` points
         // after the first `n0`, within the capacity.
         unsafe {
             self.run.records.set_len((n0 + total) * rb);
             self.run.pairs.set_len(n0 + total);
         }
-        for (lo, hi) in bounds {
+        for ((lo, hi), cells) in parts {
             for a in 0..3 {
                 self.raw_min[a] = self.raw_min[a].min(lo[a]);
                 self.raw_max[a] = self.raw_max[a].max(hi[a]);
+            }
+            if let Some(run_cells) = self.run.cells.as_mut() {
+                run_cells.extend(cells);
             }
         }
         self.pushed += total as u64;
@@ -580,6 +596,8 @@ impl StoreBuilder {
     fn append(&mut self, batch: &PointBatch, start: usize, n: usize) -> Result<(), StoreError> {
         let rb = self.rl.len;
         let n0 = self.run.pairs.len();
+        // These pairs are in input order: the run is bucketed whole when spilled.
+        self.run.cells = None;
         self.make_room(n);
         let (q, grid, rl) = (self.quantization, self.grid, &self.rl);
         let results: Vec<KeyChunk> = self.run.records[n0 * rb..]

@@ -386,6 +386,7 @@ pub(crate) fn read_run(run: &RunFile) -> Result<Run, StoreError> {
         records,
         pairs: (0..n as u32).map(|i| Pair(0, i)).collect(),
         scratch: Vec::new(),
+        cells: None,
     })
 }
 
@@ -429,13 +430,138 @@ pub(crate) struct Run {
     pub pairs: Vec<Pair>,
     /// The bucketing pass's second array, kept from one spill to the next.
     pub scratch: Vec<Pair>,
+    /// How the pairs are laid out where each decoding task put its part's pairs in bucket
+    /// order ([`bucket_part`]): cell after cell, parts in input order. `None` where any pairs
+    /// came otherwise, and the whole run is bucketed when spilled.
+    pub cells: Option<Vec<Cell>>,
 }
 
-/// Puts a run's pairs in bucket order, stable inside a bucket; where each bucket starts.
+/// A part's pairs of one bucket, consecutive in the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Cell {
+    pub bucket: u32,
+    pub len: u32,
+}
+
+/// Puts a run's pairs in bucket order, stable inside a bucket; where each bucket starts. A
+/// run laid out in cells has its cells moved whole; another is scattered pair by pair on the
+/// pool, whose threads are busy decoding the next run (60 ms a 5 M-point run where the
+/// spilling thread alone moves its cells in a fraction of that, GPU machine,
+/// docs/BENCHMARKS.md).
 pub(crate) fn bucket_run(run: &mut Run, bucketing: Bucketing) -> Vec<usize> {
+    if let Some(cells) = run.cells.take() {
+        let starts = order_cells(&mut run.pairs, &mut run.scratch, &cells, bucketing.count);
+        run.cells = Some(cells);
+        if let Some(starts) = starts {
+            return starts;
+        }
+    }
     crate::sort::bucket_by(&mut run.pairs, &mut run.scratch, bucketing.count, |k| {
         bucketing.of(k)
     })
+}
+
+/// A decoding task's tables for [`bucket_part`], kept from one part to the next.
+#[derive(Default)]
+pub(crate) struct PartBuckets {
+    /// Pairs per bucket, then where each goes; zero again between parts.
+    counts: Vec<u32>,
+    /// The buckets the part touches.
+    touched: Vec<u32>,
+    scratch: Vec<Pair>,
+}
+
+/// Puts a part's pairs in bucket order (stable inside a bucket) while they are in the
+/// decoding core's cache, and appends the part's cells, in bucket order, to `cells`.
+pub(crate) fn bucket_part(
+    pairs: &mut [Pair],
+    bucketing: Bucketing,
+    tables: &mut PartBuckets,
+    cells: &mut Vec<Cell>,
+) {
+    let PartBuckets {
+        counts,
+        touched,
+        scratch,
+    } = tables;
+    if counts.len() != bucketing.count {
+        *counts = vec![0; bucketing.count];
+    }
+    touched.clear();
+    for p in pairs.iter() {
+        let b = bucketing.of(p.0);
+        if counts[b] == 0 {
+            touched.push(b as u32);
+        }
+        counts[b] += 1;
+    }
+    touched.sort_unstable();
+    let mut at = 0u32;
+    for &b in touched.iter() {
+        let len = counts[b as usize];
+        cells.push(Cell { bucket: b, len });
+        counts[b as usize] = at;
+        at += len;
+    }
+    if touched.len() > 1 {
+        scratch.clear();
+        scratch.extend_from_slice(pairs);
+        for p in scratch.iter() {
+            let b = bucketing.of(p.0);
+            pairs[counts[b] as usize] = *p;
+            counts[b] += 1;
+        }
+    }
+    for &b in touched.iter() {
+        counts[b as usize] = 0;
+    }
+}
+
+/// Moves `pairs`, laid out as `cells`, into bucket order through `scratch` (each cell whole,
+/// in the order of `cells`: stable where that is input order) and returns where each of `nb`
+/// buckets starts; `None`, leaving the pairs as they were, where the cells do not describe
+/// them.
+fn order_cells(
+    pairs: &mut Vec<Pair>,
+    scratch: &mut Vec<Pair>,
+    cells: &[Cell],
+    nb: usize,
+) -> Option<Vec<usize>> {
+    let mut totals = vec![0usize; nb];
+    for c in cells {
+        *totals.get_mut(c.bucket as usize)? += c.len as usize;
+    }
+    let mut starts = Vec::with_capacity(nb + 1);
+    let mut at = 0usize;
+    for t in &totals {
+        starts.push(at);
+        at += t;
+    }
+    starts.push(at);
+    let n = pairs.len();
+    if at != n {
+        return None;
+    }
+    let mut cursor = starts[..nb].to_vec();
+    scratch.clear();
+    scratch.reserve_exact(n);
+    crate::pio::huge_pages(scratch);
+    let dst = &mut scratch.spare_capacity_mut()[..n];
+    let mut from = 0usize;
+    for c in cells {
+        let (len, to) = (c.len as usize, &mut cursor[c.bucket as usize]);
+        for (d, p) in dst[*to..*to + len].iter_mut().zip(&pairs[from..from + len]) {
+            d.write(*p);
+        }
+        *to += len;
+        from += len;
+    }
+    // SAFETY: each bucket's cells fill its slots `starts[b]..starts[b + 1]` exactly (the
+    // cursor of bucket b moves by its cells' lengths, which add up to its total), and the
+    // buckets' slots tile `0..n`.
+    unsafe { scratch.set_len(n) };
+    std::mem::swap(pairs, scratch);
+    Some(starts)
 }
 
 type SpillResult = Result<(RunFile, Run), StoreError>;
@@ -486,6 +612,9 @@ impl Spiller {
                         .map(|f| {
                             run.records.clear();
                             run.pairs.clear();
+                            if let Some(cells) = run.cells.as_mut() {
+                                cells.clear();
+                            }
                             (f, run)
                         });
                     let nanos = |d: std::time::Duration| d.as_nanos() as u64;
@@ -830,5 +959,65 @@ mod tests {
             0,
             "run files left"
         );
+    }
+
+    #[test]
+    fn a_run_bucketed_part_by_part_comes_out_as_one_bucketed_whole() {
+        let bucketing = Bucketing {
+            shift: 8,
+            base: 3,
+            count: 64,
+        };
+        let mut rng = pointlet_core::shuffle::SplitMix64::new(7);
+        // Keys below the base and past the last bucket too; parts of 0 to 500 pairs, some
+        // of a single bucket.
+        let mut pairs = Vec::new();
+        let mut parts = Vec::new();
+        while pairs.len() < 20_000 {
+            let len = (rng.next_u64() % 501) as usize;
+            let one = rng.next_u64().is_multiple_of(4);
+            let key = rng.next_u64() % (80 << 8);
+            for _ in 0..len {
+                let k = if one { key } else { rng.next_u64() % (80 << 8) };
+                pairs.push(Pair(k, pairs.len() as u32));
+            }
+            parts.push(len);
+        }
+        let mut whole = pairs.clone();
+        let want = crate::sort::bucket_by(&mut whole, &mut Vec::new(), 64, |k| bucketing.of(k));
+        let mut run = Run {
+            pairs,
+            cells: Some(Vec::new()),
+            ..Default::default()
+        };
+        let (mut tables, mut from) = (PartBuckets::default(), 0);
+        for len in parts {
+            let cells = run.cells.as_mut().unwrap();
+            bucket_part(
+                &mut run.pairs[from..from + len],
+                bucketing,
+                &mut tables,
+                cells,
+            );
+            from += len;
+        }
+        let cells = run.cells.take().unwrap();
+        assert!(
+            cells.windows(2).any(|w| w[0].bucket > w[1].bucket),
+            "one part only"
+        );
+        let starts = order_cells(&mut run.pairs, &mut run.scratch, &cells, 64);
+        assert_eq!(starts, Some(want));
+        assert_eq!(run.pairs, whole);
+        // Cells that do not describe the pairs: the run is bucketed pair by pair.
+        let mut run = Run {
+            pairs: whole.iter().rev().copied().collect(),
+            cells: Some(vec![Cell { bucket: 0, len: 3 }]),
+            ..Default::default()
+        };
+        let mut again = run.pairs.clone();
+        let want = crate::sort::bucket_by(&mut again, &mut Vec::new(), 64, |k| bucketing.of(k));
+        assert_eq!(bucket_run(&mut run, bucketing), want);
+        assert_eq!(run.pairs, again);
     }
 }
