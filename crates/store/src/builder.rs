@@ -126,6 +126,8 @@ pub struct SpillTimings {
 type KeyChunk = Result<RawBounds, (usize, String)>;
 /// Lowest and highest quantized coordinates.
 type RawBounds = ([i32; 3], [i32; 3]);
+/// A part decoded into the run: its raw bounds, and its cells where it was grouped by bucket.
+type DecodedPart = (RawBounds, Option<Vec<Cell>>);
 
 /// Points per parallel task when quantizing and keying a batch.
 const KEY_TASK: usize = 1 << 14;
@@ -222,7 +224,10 @@ fn budget_sizes(budget: u64, record: usize, claimed: u64) -> (usize, usize, bool
     if claimed <= whole {
         (io_chunk, clamp(whole), false)
     } else {
-        (io_chunk, clamp(whole / (runs::SPILLERS as u64 + 1)), true)
+        // Runs that spill also hold their parts' cells (`runs::bucket_part`).
+        let cells = (std::mem::size_of::<Cell>() / runs::POINTS_PER_CELL) as u64;
+        let runs = runs::SPILLERS as u64 + 1;
+        (io_chunk, clamp(room / (per_point + cells) / runs), true)
     }
 }
 
@@ -451,7 +456,7 @@ impl StoreBuilder {
         let (pushed, claimed, progress) = (self.pushed, self.claimed, &self.progress);
         let output = &self.output;
         let done = AtomicU64::new(0);
-        let results: Vec<Result<(RawBounds, Vec<Cell>), StoreError>> = jobs
+        let results: Vec<Result<DecodedPart, StoreError>> = jobs
             .into_par_iter()
             .map_init(
                 || (PointBatch::default(), Vec::new(), PartBuckets::default()),
@@ -494,10 +499,11 @@ impl StoreBuilder {
                         });
                     }
                     let mut cells = Vec::new();
-                    if let Some(b) = bucketing {
-                        runs::bucket_part(pairs, b, tables, &mut cells);
-                    }
-                    Ok((bounds, cells))
+                    let grouped = match bucketing {
+                        Some(b) => runs::bucket_part(pairs, b, tables, &mut cells),
+                        None => false,
+                    };
+                    Ok((bounds, grouped.then_some(cells)))
                 },
             )
             .collect();
@@ -513,8 +519,10 @@ impl StoreBuilder {
                 self.raw_min[a] = self.raw_min[a].min(lo[a]);
                 self.raw_max[a] = self.raw_max[a].max(hi[a]);
             }
-            if let Some(run_cells) = self.run.cells.as_mut() {
-                run_cells.extend(cells);
+            match (self.run.cells.as_mut(), cells) {
+                (Some(run_cells), Some(cells)) => run_cells.extend(cells),
+                // A part left in input order: the run is scattered whole when spilled.
+                _ => self.run.cells = None,
             }
         }
         self.pushed += total as u64;

@@ -471,14 +471,20 @@ pub(crate) struct PartBuckets {
     scratch: Vec<Pair>,
 }
 
+/// Points per cell a part needs at least to be put in cells: the cells of a run then take at
+/// most 2 bytes a point ([`Cell`]'s 8 bytes per 4 points), which the run budget counts.
+pub(crate) const POINTS_PER_CELL: usize = 4;
+
 /// Puts a part's pairs in bucket order (stable inside a bucket) while they are in the
-/// decoding core's cache, and appends the part's cells, in bucket order, to `cells`.
+/// decoding core's cache, and appends the part's cells, in bucket order, to `cells`. A part
+/// spread over more than a [`POINTS_PER_CELL`]th of its size in buckets (a small part, points
+/// scattered through the volume) is left as it is: `false`, and the run is scattered whole.
 pub(crate) fn bucket_part(
     pairs: &mut [Pair],
     bucketing: Bucketing,
     tables: &mut PartBuckets,
     cells: &mut Vec<Cell>,
-) {
+) -> bool {
     let PartBuckets {
         counts,
         touched,
@@ -494,6 +500,12 @@ pub(crate) fn bucket_part(
             touched.push(b as u32);
         }
         counts[b] += 1;
+    }
+    if touched.len() > pairs.len() / POINTS_PER_CELL {
+        for &b in touched.iter() {
+            counts[b as usize] = 0;
+        }
+        return false;
     }
     touched.sort_unstable();
     let mut at = 0u32;
@@ -515,6 +527,7 @@ pub(crate) fn bucket_part(
     for &b in touched.iter() {
         counts[b as usize] = 0;
     }
+    true
 }
 
 /// Moves `pairs`, laid out as `cells`, into bucket order through `scratch` (each cell whole,
@@ -969,12 +982,12 @@ mod tests {
             count: 64,
         };
         let mut rng = pointlet_core::shuffle::SplitMix64::new(7);
-        // Keys below the base and past the last bucket too; parts of 0 to 500 pairs, some
-        // of a single bucket.
+        // Keys below the base and past the last bucket too; parts of 256 to 756 pairs (the
+        // 64 buckets take at most a quarter), some of a single bucket.
         let mut pairs = Vec::new();
         let mut parts = Vec::new();
         while pairs.len() < 20_000 {
-            let len = (rng.next_u64() % 501) as usize;
+            let len = 256 + (rng.next_u64() % 501) as usize;
             let one = rng.next_u64().is_multiple_of(4);
             let key = rng.next_u64() % (80 << 8);
             for _ in 0..len {
@@ -993,12 +1006,8 @@ mod tests {
         let (mut tables, mut from) = (PartBuckets::default(), 0);
         for len in parts {
             let cells = run.cells.as_mut().unwrap();
-            bucket_part(
-                &mut run.pairs[from..from + len],
-                bucketing,
-                &mut tables,
-                cells,
-            );
+            let part = &mut run.pairs[from..from + len];
+            assert!(bucket_part(part, bucketing, &mut tables, cells));
             from += len;
         }
         let cells = run.cells.take().unwrap();
@@ -1009,6 +1018,16 @@ mod tests {
         let starts = order_cells(&mut run.pairs, &mut run.scratch, &cells, 64);
         assert_eq!(starts, Some(want));
         assert_eq!(run.pairs, whole);
+        // A part spread over more buckets than a quarter of its points is left as it is.
+        let mut spread: Vec<Pair> = (0..40).map(|i| Pair(i << 8 | 5, i as u32)).collect();
+        let (before, mut cells) = (spread.clone(), Vec::new());
+        assert!(!bucket_part(
+            &mut spread,
+            bucketing,
+            &mut tables,
+            &mut cells
+        ));
+        assert_eq!((spread, cells), (before, Vec::new()));
         // Cells that do not describe the pairs: the run is bucketed pair by pair.
         let mut run = Run {
             pairs: whole.iter().rev().copied().collect(),
