@@ -444,9 +444,9 @@ pub(crate) struct Cell {
 }
 
 /// Puts a run's pairs in bucket order, stable inside a bucket; where each bucket starts. A
-/// run laid out in cells has its cells moved whole; another is scattered pair by pair on the
-/// pool, whose threads are busy decoding the next run (60 ms a 5 M-point run where the
-/// spilling thread alone moves its cells in a fraction of that, GPU machine,
+/// run laid out in cells has its cells moved whole by the calling thread; another is
+/// scattered pair by pair on the pool, which takes such jobs only when the next run's decoding
+/// leaves it idle (42–60 ms a 5 M-point run on the GPU machine, the cells 17–26 ms;
 /// docs/BENCHMARKS.md).
 pub(crate) fn bucket_run(run: &mut Run, bucketing: Bucketing) -> Vec<usize> {
     if let Some(cells) = run.cells.take() {
