@@ -69,6 +69,7 @@ struct Summary<'a> {
     /// The same from host memory (system RAM the GPU reads over the bus), where there is such.
     upload_host_write_gbs: Option<f64>,
     upload_host_copy_gbs: Option<f64>,
+    upload_host_make_gbs: Option<f64>,
     /// Batches staged in newly mapped upload memory, and in reused memory.
     staged_new: u64,
     staged_reused: u64,
@@ -317,10 +318,14 @@ pub fn run(args: &Args) -> Result<()> {
         upload.copy_gbs,
         progress.points_per_s() * 16.0 / 1e9
     );
-    if let (Some(w), Some(c)) = (upload.host_write_gbs, upload.host_copy_gbs) {
+    if let (Some(w), Some(c), Some(m)) = (
+        upload.host_write_gbs,
+        upload.host_copy_gbs,
+        upload.host_make_gbs,
+    ) {
         println!(
             "from host memory instead: threads write it at {w:.1} GB/s, the GPU pulls it over \
-             the bus at {c:.1} GB/s"
+             the bus at {c:.1} GB/s; the driver makes it at {m:.2} GB/s"
         );
     }
     if let Some(p) = &args.plot {
@@ -352,6 +357,7 @@ pub fn run(args: &Args) -> Result<()> {
             upload_copy_gbs: upload.copy_gbs,
             upload_host_write_gbs: upload.host_write_gbs,
             upload_host_copy_gbs: upload.host_copy_gbs,
+            upload_host_make_gbs: upload.host_make_gbs,
             staged_new: progress.staged_new,
             staged_reused: progress.staged_reused,
             open_passes_s: open.passes.as_secs_f64(),

@@ -132,6 +132,9 @@ pub struct UploadBandwidth {
     /// where the device has no such memory or it cannot be made outside wgpu.
     pub host_write_gbs: Option<f64>,
     pub host_copy_gbs: Option<f64>,
+    /// GB/s at which the driver makes such memory (one buffer after another): what staging
+    /// batches in it would pay before the first write.
+    pub host_make_gbs: Option<f64>,
 }
 
 /// Measures [`UploadBandwidth`] with `bytes` in buffers of `chunk` bytes, over `runs` runs.
@@ -216,10 +219,14 @@ pub fn upload_bandwidth(
         v.sort_by(f64::total_cmp);
         bytes as f64 / v[v.len() / 2].max(1e-9) / 1e9
     };
-    let (host_write_gbs, host_copy_gbs) =
+    let (host_write_gbs, host_copy_gbs, host_make_gbs) =
         match host_bandwidth(ctx, &dst, chunk, chunks, runs, &pattern)? {
-            Some(t) => (Some(median(t.writes)), Some(median(t.copies))),
-            None => (None, None),
+            Some(t) => (
+                Some(median(t.writes)),
+                Some(median(t.copies)),
+                Some(bytes as f64 / t.made.max(1e-9) / 1e9),
+            ),
+            None => (None, None, None),
         };
     Ok(UploadBandwidth {
         bytes,
@@ -227,6 +234,7 @@ pub fn upload_bandwidth(
         copy_gbs: median(copies),
         host_write_gbs,
         host_copy_gbs,
+        host_make_gbs,
     })
 }
 
@@ -245,12 +253,14 @@ fn host_bandwidth(
         return Ok(None);
     };
     let mut staged = Vec::new();
+    let making = web_time::Instant::now();
     for _ in 0..chunks {
         match alloc.host_buffer("host upload memory", chunk, wgpu::BufferUsages::COPY_SRC)? {
             Some(b) => staged.push(b),
             None => return Ok(None),
         }
     }
+    let made = making.elapsed().as_secs_f64();
     let (mut writes, mut copies) = (Vec::new(), Vec::new());
     for _ in 0..runs.max(1) + 1 {
         let started = web_time::Instant::now();
@@ -270,11 +280,16 @@ fn host_bandwidth(
         ctx.wait()?;
         copies.push(started.elapsed().as_secs_f64());
     }
-    Ok(Some(RunTimes { writes, copies }))
+    Ok(Some(RunTimes {
+        writes,
+        copies,
+        made,
+    }))
 }
 
-/// Seconds of each run's writes and copies.
+/// Seconds of each run's writes and copies, and of making the memory.
 struct RunTimes {
     writes: Vec<f64>,
     copies: Vec<f64>,
+    made: f64,
 }
