@@ -2,6 +2,7 @@
 //! process as the rasterizers so their GB/s can be put in proportion.
 
 use crate::context::GpuContext;
+use crate::device_memory::HostBuffer;
 use crate::raster::grid;
 use crate::shaders;
 use crate::shuffle::StagedRegion;
@@ -205,14 +206,7 @@ pub fn upload_bandwidth(
         for b in &staged {
             b.unmap();
         }
-        let mut enc = device.create_command_encoder(&Default::default());
-        for b in &staged {
-            enc.copy_buffer_to_buffer(b, 0, &dst, 0, chunk);
-        }
-        let started = web_time::Instant::now();
-        ctx.queue.submit([enc.finish()]);
-        ctx.wait()?;
-        copies.push(started.elapsed().as_secs_f64());
+        copies.push(copy_time(ctx, staged.iter(), &dst, chunk)?);
     }
     let median = |mut v: Vec<f64>| {
         v.remove(0);
@@ -271,20 +265,36 @@ fn host_bandwidth(
             })
         });
         writes.push(started.elapsed().as_secs_f64());
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        for b in &staged {
-            enc.copy_buffer_to_buffer(b.buffer(), 0, dst, 0, chunk);
-        }
-        let started = web_time::Instant::now();
-        ctx.queue.submit([enc.finish()]);
-        ctx.wait()?;
-        copies.push(started.elapsed().as_secs_f64());
+        copies.push(copy_time(
+            ctx,
+            staged.iter().map(HostBuffer::buffer),
+            dst,
+            chunk,
+        )?);
     }
     Ok(Some(RunTimes {
         writes,
         copies,
         made,
     }))
+}
+
+/// Seconds of the GPU copying the first `chunk` bytes of each of `sources` into `dst`, from
+/// submit to done.
+fn copy_time<'a>(
+    ctx: &GpuContext,
+    sources: impl Iterator<Item = &'a wgpu::Buffer>,
+    dst: &wgpu::Buffer,
+    chunk: u64,
+) -> Result<f64, GpuError> {
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    for b in sources {
+        enc.copy_buffer_to_buffer(b, 0, dst, 0, chunk);
+    }
+    let started = web_time::Instant::now();
+    ctx.queue.submit([enc.finish()]);
+    ctx.wait()?;
+    Ok(started.elapsed().as_secs_f64())
 }
 
 /// Seconds of each run's writes and copies, and of making the memory.

@@ -449,8 +449,6 @@ impl StoreBuilder {
         let bucketing = self.overlap.then(Bucketing::top);
         if n0 == 0 {
             self.run.cells = bucketing.map(|_| self.run.cells.take().unwrap_or_default());
-        } else if bucketing.is_none() {
-            self.run.cells = None;
         }
         let (q, grid, rl, want) = (self.quantization, self.grid, &self.rl, self.layout);
         let (pushed, claimed, progress) = (self.pushed, self.claimed, &self.progress);
