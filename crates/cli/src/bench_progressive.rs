@@ -70,8 +70,10 @@ struct Summary<'a> {
     upload_host_write_gbs: Option<f64>,
     upload_host_copy_gbs: Option<f64>,
     upload_host_make_gbs: Option<f64>,
-    /// Batches staged in newly mapped upload memory, and in reused memory.
+    /// Batches staged in newly made upload memory (of which made by Vulkan directly), and in
+    /// reused memory.
     staged_new: u64,
+    staged_direct: u64,
     staged_reused: u64,
     /// Making the passes and the GPU buffers (s), part of the time to the first frame.
     open_passes_s: f64,
@@ -303,11 +305,12 @@ pub fn run(args: &Args) -> Result<()> {
         pointlet_core::size::format_bytes(scene.gpu_bytes())
     );
     println!(
-        "upload memory: {} batches staged, {} newly mapped in {:.3} s, {} reused; the load thread \
-         waited {:.3} s for the render thread to take batches",
+        "upload memory: {} batches staged, {} newly made in {:.3} s ({} by Vulkan directly), {} \
+         reused; the load thread waited {:.3} s for the render thread to take batches",
         progress.staged_new + progress.staged_reused,
         progress.staged_new,
         progress.staging.as_secs_f64(),
+        progress.staged_direct,
         progress.staged_reused,
         progress.queue_waited.as_secs_f64()
     );
@@ -360,6 +363,7 @@ pub fn run(args: &Args) -> Result<()> {
             upload_host_make_gbs: upload.host_make_gbs,
             staged_new: progress.staged_new,
             staged_reused: progress.staged_reused,
+            staged_direct: progress.staged_direct,
             open_passes_s: open.passes.as_secs_f64(),
             open_buffers_s: open.buffers.as_secs_f64(),
             gpu_bytes: scene.gpu_bytes(),

@@ -2,8 +2,8 @@
 //!
 //! As in the virtualized paper (§III-A), the Hilbert index is derived from the Morton code:
 //! the Morton code is walked three bits (one octant) at a time through a state table that maps
-//! each octant to its Hilbert digit and to the orientation of the child cube. We walk two
-//! levels per step with a 64-entry table per state. The table is built once from the curve's
+//! each octant to its Hilbert digit and to the orientation of the child cube. We walk three
+//! levels per step with a 512-entry table per state. The table is built once from the curve's
 //! base pattern (the 8-cell Gray-code order) and the orientation of each of its children.
 
 use std::sync::OnceLock;

@@ -28,6 +28,7 @@ use pointlet_core::progressive::{
 use pointlet_core::{PartedSource, PointBatch, PointLayout};
 use pointlet_gpu::shuffle::{
     Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, StagedBatch, StagedRegion, Targets,
+    UploadMemory,
 };
 use pointlet_gpu::{encode_point, GpuContext, PointEncoding};
 use pointlet_io::{PointReader, ReadOptions};
@@ -133,12 +134,14 @@ pub struct LoadProgress {
     /// Since the load started, until it ended.
     pub elapsed: Duration,
     pub state: LoadState,
-    /// Batches staged in mapped upload memory: newly mapped (allocated and zero-filled) and
-    /// reused once the GPU had copied them.
+    /// Batches staged in upload memory: newly made (and, where wgpu maps it, zero-filled)
+    /// and reused once the GPU had copied them.
     pub staged_new: u64,
     pub staged_reused: u64,
     /// Time the load threads spent making new upload memory, in all.
     pub staging: Duration,
+    /// Of the batches newly made, those made by Vulkan directly (see [`UploadMemory`]).
+    pub staged_direct: u64,
     /// Time the load thread waited for the render thread to take batches (the queue was full).
     pub queue_waited: Duration,
 }
@@ -210,12 +213,13 @@ struct Shared {
     color: OnceLock<LoadColor>,
     /// The file's surface spacing at full density, measured on the colour sample.
     spacing: OnceLock<f64>,
-    /// The GPU, once the render thread has one: batches then go to mapped upload memory.
-    device: OnceLock<wgpu::Device>,
-    /// Staged batches the GPU is done with, mapped again, for the next batches.
+    /// The GPU's upload memory, once the render thread has a GPU: batches then go there.
+    upload: OnceLock<UploadMemory>,
+    /// Staged batches the GPU is done with, writable again, for the next batches.
     staged_pool: Mutex<Vec<StagedBatch>>,
     /// Whether batches are still recycled into the pool (not once loading ended).
     recycling: AtomicBool,
+    staged_direct: AtomicU64,
     staged_new: AtomicU64,
     staged_reused: AtomicU64,
     /// Nanoseconds of `LoadProgress::staging` and `LoadProgress::queue_waited`.
@@ -224,8 +228,9 @@ struct Shared {
 }
 
 impl Shared {
-    /// A staged batch with room for `points`: one from the pool, else a new one.
-    fn take_staged(&self, device: &wgpu::Device, points: u64) -> Option<StagedBatch> {
+    /// A staged batch with room for `points`: one from the pool, else a new one, made by
+    /// Vulkan directly where it can be (see [`UploadMemory`]).
+    fn take_staged(&self, upload: &UploadMemory, points: u64) -> Option<StagedBatch> {
         let reused = {
             let mut pool = self.staged_pool.lock().unwrap_or_else(|e| e.into_inner());
             let fits = pool.iter().position(|b| b.capacity() >= points);
@@ -236,14 +241,20 @@ impl Shared {
             return reused;
         }
         let started = Instant::now();
-        let new = StagedBatch::new(device, PointEncoding::Full16, points).ok();
+        // Where Vulkan cannot make it (or its memory is used up), memory wgpu maps.
+        let direct = StagedBatch::direct(upload, PointEncoding::Full16, points)
+            .ok()
+            .flatten();
+        self.staged_direct
+            .fetch_add(u64::from(direct.is_some()), Ordering::Relaxed);
+        let new = direct.or_else(|| StagedBatch::new(upload, PointEncoding::Full16, points).ok());
         self.staging_ns.fetch_add(nanos(started), Ordering::Relaxed);
         self.staged_new
             .fetch_add(u64::from(new.is_some()), Ordering::Relaxed);
         new
     }
 
-    /// Returns a staged batch whose copy was submitted to the pool once it is mapped again.
+    /// Returns a staged batch whose copy was submitted to the pool once it is writable again.
     fn recycle(self: &Arc<Self>, staged: StagedBatch) {
         if !self.recycling.load(Ordering::Relaxed) {
             return;
@@ -367,9 +378,10 @@ impl ProgressiveLoad {
             loaded: AtomicU64::new(0),
             color: OnceLock::new(),
             spacing: OnceLock::new(),
-            device: OnceLock::new(),
+            upload: OnceLock::new(),
             staged_pool: Mutex::new(Vec::new()),
             recycling: AtomicBool::new(true),
+            staged_direct: AtomicU64::new(0),
             staged_new: AtomicU64::new(0),
             staged_reused: AtomicU64::new(0),
             staging_ns: AtomicU64::new(0),
@@ -500,19 +512,25 @@ impl ProgressiveLoad {
             staged_new: self.shared.staged_new.load(Ordering::Relaxed),
             staged_reused: self.shared.staged_reused.load(Ordering::Relaxed),
             staging: Duration::from_nanos(self.shared.staging_ns.load(Ordering::Relaxed)),
+            staged_direct: self.shared.staged_direct.load(Ordering::Relaxed),
             queue_waited: Duration::from_nanos(self.shared.queue_wait_ns.load(Ordering::Relaxed)),
         }
     }
 
-    /// The GPU the batches are for: from now on the load thread decodes into mapped upload
+    /// The GPU the batches are for: from now on the load thread decodes into its upload
     /// memory (before, batches wait in memory and the render thread uploads them).
-    pub fn use_device(&self, device: &wgpu::Device) {
-        self.shared.device.get_or_init(|| device.clone());
+    pub fn use_device(&self, ctx: &GpuContext) {
+        self.shared.upload.get_or_init(|| UploadMemory::new(ctx));
     }
 
-    /// The GPU given to [`use_device`](Self::use_device), if any.
-    pub(crate) fn device(&self) -> Option<&wgpu::Device> {
-        self.shared.device.get()
+    /// Like [`use_device`](Self::use_device), with the upload memory of another load.
+    pub(crate) fn use_upload(&self, upload: &UploadMemory) {
+        self.shared.upload.get_or_init(|| upload.clone());
+    }
+
+    /// The upload memory given by [`use_device`](Self::use_device), if any.
+    pub(crate) fn upload(&self) -> Option<&UploadMemory> {
+        self.shared.upload.get()
     }
 
     /// Scatters up to `max_batches` batches that are ready into `dst` (a Full16 buffer of
@@ -545,7 +563,7 @@ impl ProgressiveLoad {
                 dst.order()
             )));
         }
-        self.use_device(&ctx.device);
+        self.use_device(ctx);
         let mut up = Uploaded::default();
         while up.batches < max_batches {
             let Some(queue) = &self.queue else { break };
@@ -860,11 +878,12 @@ fn decode_batch(
     // Within the reservoir's capacity and once the GPU is there, straight into upload memory.
     let staged = job
         .shared
-        .device
+        .upload
         .get()
         .filter(|_| !job.colors_only && first + points <= job.placed_in_order())
-        .and_then(|device| job.shared.take_staged(device, points));
-    let in_memory = if staged.is_some() { 0 } else { points as usize };
+        .and_then(|upload| job.shared.take_staged(upload, points));
+    let is_staged = staged.is_some();
+    let in_memory = if is_staged { 0 } else { points as usize };
     let mut out = EncodedPoints {
         first,
         slots: None,
@@ -873,16 +892,17 @@ fn decode_batch(
         staged: None,
         read: points,
     };
+    let mut staged = staged;
     let mut view = staged
-        .as_ref()
+        .as_mut()
         .map(StagedBatch::map)
         .transpose()
         .map_err(|e| Stop::Failed(format!("{}: {e}", job.path.display())))?;
     // Each part's share of the batch, so that threads encode in place.
     let mut jobs = Vec::with_capacity(range.len());
-    match (&staged, view.as_mut()) {
-        (Some(staged), Some(view)) => {
-            let regions = staged.regions(view);
+    match view.as_mut() {
+        Some(view) => {
+            let regions = view.regions();
             let (mut pos, mut col) = (regions.positions, regions.colors);
             for i in range.clone() {
                 let size = sizes[i] as usize;
@@ -907,7 +927,7 @@ fn decode_batch(
     // needs them here: elevation).
     let stored = parts
         .quantized_positions()
-        .filter(|_| staged.is_some() && color.scale.mode != ColorMode::Elevation)
+        .filter(|_| is_staged && color.scale.mode != ColorMode::Elevation)
         .map(|q| Dequantize::new(q.scale, q.offset, job.origin));
     // One task per part, queued in order (see `load_parts`), each with scratch from the pool.
     let mut results: Vec<Result<(), String>> = jobs.iter().map(|_| Ok(())).collect();

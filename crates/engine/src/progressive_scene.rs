@@ -236,7 +236,7 @@ impl ProgressiveScene {
     ) -> Result<Self, EngineError> {
         let path = load.path().to_path_buf();
         // Batches decoded from now on go straight into upload memory.
-        load.use_device(&ctx.device);
+        load.use_device(ctx);
         config.load.max_slots = load.slots();
         let started = Instant::now();
         let renderer = ProgressiveRenderer::new(ctx, config.variant, config.page_size)?;
@@ -451,8 +451,8 @@ impl ProgressiveScene {
             load.colors_only = true;
         }
         let next = ProgressiveLoad::start_many(self.load.inputs(), load.clone())?;
-        if let Some(device) = self.load.device() {
-            next.use_device(device);
+        if let Some(upload) = self.load.upload() {
+            next.use_upload(upload);
         }
         self.load = next;
         self.config.load.color = mode;

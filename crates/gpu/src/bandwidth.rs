@@ -2,7 +2,7 @@
 //! process as the rasterizers so their GB/s can be put in proportion.
 
 use crate::context::GpuContext;
-use crate::device_memory::HostBuffer;
+use crate::device_memory::MappedBuffer;
 use crate::raster::grid;
 use crate::shaders;
 use crate::shuffle::StagedRegion;
@@ -118,8 +118,11 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, runs: u32) -> Result<Option<
 }
 
 /// How fast points reach the GPU through mapped upload memory, the way progressive loading
-/// sends them: threads write into freshly mapped `MAP_WRITE` buffers, then the GPU copies
-/// them into a device buffer (over PCIe, unless the upload memory already lies in VRAM).
+/// sends them: threads write into freshly mapped `MAP_WRITE` buffers ([`BUS_WRITERS`] at a
+/// time), then the GPU copies them into a device buffer (over PCIe, unless the upload memory
+/// already lies in VRAM).
+///
+/// [`BUS_WRITERS`]: crate::shuffle::BUS_WRITERS
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UploadBandwidth {
     /// Bytes moved per run.
@@ -267,7 +270,7 @@ fn host_bandwidth(
         writes.push(started.elapsed().as_secs_f64());
         copies.push(copy_time(
             ctx,
-            staged.iter().map(HostBuffer::buffer),
+            staged.iter().map(MappedBuffer::buffer),
             dst,
             chunk,
         )?);

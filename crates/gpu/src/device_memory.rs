@@ -54,8 +54,31 @@ impl DirectAllocator {
         label: &str,
         size: u64,
         usage: wgpu::BufferUsages,
-    ) -> Result<Option<HostBuffer>, GpuError> {
-        let made = self.make(size, usage, |bits| host_type(&self.types, bits))?;
+    ) -> Result<Option<MappedBuffer>, GpuError> {
+        self.mapped_buffer(label, size, usage, |bits| host_type(&self.types, bits))
+    }
+
+    /// Like [`host_buffer`](Self::host_buffer), in the device's own memory that the host sees
+    /// (a discrete GPU's resizable BAR; all memory of an integrated or a CPU GPU): memory to
+    /// upload through, written by the CPU and copied by the GPU without crossing the bus.
+    pub fn upload_buffer(
+        &self,
+        label: &str,
+        size: u64,
+        usage: wgpu::BufferUsages,
+    ) -> Result<Option<MappedBuffer>, GpuError> {
+        self.mapped_buffer(label, size, usage, |bits| upload_type(&self.types, bits))
+    }
+
+    /// A buffer in memory of the type `choose` picks, mapped whole.
+    fn mapped_buffer(
+        &self,
+        label: &str,
+        size: u64,
+        usage: wgpu::BufferUsages,
+        choose: impl FnOnce(u32) -> Option<u32>,
+    ) -> Result<Option<MappedBuffer>, GpuError> {
+        let made = self.make(size, usage, choose)?;
         let Some(made) = made else {
             return Ok(None);
         };
@@ -69,7 +92,7 @@ impl DirectAllocator {
         let len = usize::try_from(size)
             .map_err(|_| GpuError::InvalidInput(format!("{size} bytes of host memory")))?;
         let buffer = self.hand_over(made, label, size, usage);
-        Ok(Some(HostBuffer {
+        Ok(Some(MappedBuffer {
             buffer,
             ptr: ptr.cast(),
             len,
@@ -175,6 +198,16 @@ fn host_type(types: &vk::PhysicalDeviceMemoryProperties, bits: u32) -> Option<u3
     .or_else(|| memory_type(types, bits, host, local))
 }
 
+/// The memory type among `bits` to upload through: the device's own, seen and kept coherent
+/// by the host. Host memory the GPU pulls over the bus lost to it (docs/BENCHMARKS.md, issue
+/// 11, session 48): the driver pins it as it makes it, and the copies take the frames' queue.
+fn upload_type(types: &vk::PhysicalDeviceMemoryProperties, bits: u32) -> Option<u32> {
+    let want = vk::MemoryPropertyFlags::DEVICE_LOCAL
+        | vk::MemoryPropertyFlags::HOST_VISIBLE
+        | vk::MemoryPropertyFlags::HOST_COHERENT;
+    memory_type(types, bits, want, vk::MemoryPropertyFlags::empty())
+}
+
 /// A memory type among `bits` with every property of `want` and none of `avoid`.
 fn memory_type(
     types: &vk::PhysicalDeviceMemoryProperties,
@@ -197,17 +230,18 @@ fn memory_type(
         .map(|i| i as u32)
 }
 
-/// A buffer in host memory the GPU reads over the bus, mapped for the CPU as long as it lives.
-pub(crate) struct HostBuffer {
+/// A buffer mapped for the CPU as long as it lives: in host memory the GPU reads over the bus,
+/// or in the device's own memory that the host sees.
+pub(crate) struct MappedBuffer {
     buffer: wgpu::Buffer,
     ptr: *mut u8,
     len: usize,
 }
 
 // SAFETY: the mapping is plain memory, reached only through `&mut self`.
-unsafe impl Send for HostBuffer {}
+unsafe impl Send for MappedBuffer {}
 
-impl HostBuffer {
+impl MappedBuffer {
     pub fn buffer(&self) -> &wgpu::Buffer {
         &self.buffer
     }
@@ -274,7 +308,7 @@ mod tests {
     }
 
     #[test]
-    fn buffers_take_device_memory_and_host_buffers_system_memory() {
+    fn buffers_take_device_memory_host_buffers_system_memory_and_uploads_the_bar() {
         let host = F::HOST_VISIBLE | F::HOST_COHERENT;
         // A discrete GPU with a resizable BAR.
         let discrete = types(&[
@@ -295,5 +329,10 @@ mod tests {
         let unified = types(&[F::DEVICE_LOCAL | host | F::HOST_CACHED]);
         assert_eq!(device_type(&unified, u32::MAX), Some(0));
         assert_eq!(host_type(&unified, u32::MAX), None);
+        // Upload memory: the device's own that the host sees (the BAR), never the host's.
+        assert_eq!(upload_type(&discrete, u32::MAX), Some(1));
+        assert_eq!(upload_type(&discrete, 0b11000), None);
+        assert_eq!(upload_type(&discrete, 0b101), None);
+        assert_eq!(upload_type(&unified, u32::MAX), Some(0));
     }
 }

@@ -24,14 +24,23 @@ impl DirectAllocator {
         _label: &str,
         _size: u64,
         _usage: wgpu::BufferUsages,
-    ) -> Result<Option<HostBuffer>, GpuError> {
+    ) -> Result<Option<MappedBuffer>, GpuError> {
+        match *self {}
+    }
+
+    pub fn upload_buffer(
+        &self,
+        _label: &str,
+        _size: u64,
+        _usage: wgpu::BufferUsages,
+    ) -> Result<Option<MappedBuffer>, GpuError> {
         match *self {}
     }
 }
 
-pub(crate) enum HostBuffer {}
+pub(crate) enum MappedBuffer {}
 
-impl HostBuffer {
+impl MappedBuffer {
     pub fn buffer(&self) -> &wgpu::Buffer {
         match *self {}
     }

@@ -7,6 +7,7 @@
 //! as many buffers as the binding limit requires.
 
 use crate::context::GpuContext;
+use crate::device_memory::{DirectAllocator, MappedBuffer};
 use crate::raster::{grid, storage_group};
 use crate::shaders;
 use crate::storage::{PointChunk, PointEncoding, PointStorage};
@@ -25,12 +26,46 @@ pub struct EncodedBatch<'a> {
     pub colors: &'a [u32],
 }
 
+/// Where [`StagedBatch`]es are made. On Vulkan, memory made by Vulkan directly in the device's
+/// own memory that the host sees (the resizable BAR on a discrete GPU), mapped for good: no
+/// allocator lock and no zero-filling by one thread per batch, as memory wgpu maps has (~8 ms a
+/// 16 MB batch on the H100 machine). Elsewhere (browsers, [`Capabilities::direct_memory`] off,
+/// no such memory left), memory wgpu maps.
+///
+/// Host memory the GPU pulls over the bus was tried (docs/BENCHMARKS.md, issue 11, sessions
+/// 47–48): threads write it twice as fast as the BAR, but the driver pins it as it makes it
+/// (3.6–5.8 GB/s), and its copies over the bus take the frames' one queue: loads were slower
+/// and frames stalled while loading.
+///
+/// [`Capabilities::direct_memory`]: crate::Capabilities::direct_memory
+#[derive(Clone)]
+pub struct UploadMemory {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    direct: Option<std::sync::Arc<DirectAllocator>>,
+}
+
+impl UploadMemory {
+    pub fn new(ctx: &GpuContext) -> Self {
+        Self {
+            device: ctx.device.clone(),
+            queue: ctx.queue.clone(),
+            direct: ctx.direct_allocator().map(std::sync::Arc::new),
+        }
+    }
+
+    /// Whether batches can be made by Vulkan directly ([`StagedBatch::direct`]).
+    pub fn makes_directly(&self) -> bool {
+        self.direct.is_some()
+    }
+}
+
 /// A batch encoded straight into mapped upload memory by the threads that decode it: the
 /// render thread then records only its copy to the GPU and its scatter, without a copy of its
 /// own on the CPU (a whole batch through `Queue::write_buffer` runs at one core's memcpy).
 /// Regions: position words, fine words (Compact8), colours, each for `capacity` points.
 pub struct StagedBatch {
-    buffer: wgpu::Buffer,
+    memory: StagedMemory,
     encoding: PointEncoding,
     capacity: u64,
     /// Points written (set by [`finish`](Self::finish)).
@@ -111,6 +146,51 @@ struct DequantizeUniform {
     shift: [f32; 4],
 }
 
+/// The memory of a [`StagedBatch`].
+enum StagedMemory {
+    /// Upload memory wgpu maps for writing and unmaps for the GPU.
+    Mapped(wgpu::Buffer),
+    /// Memory Vulkan made, mapped as long as it lives (boxed: a batch travels through
+    /// channels).
+    Direct(Box<DirectStaging>),
+}
+
+struct DirectStaging {
+    memory: MappedBuffer,
+    /// Says when the GPU is done copying the batch.
+    queue: wgpu::Queue,
+}
+
+/// A [`StagedBatch`]'s bytes while the CPU writes them; [`regions`](Self::regions) splits them.
+pub struct StagedView<'a> {
+    bytes: StagedBytes<'a>,
+    /// Where the fine and colour regions start.
+    fine_at: usize,
+    colors_at: usize,
+}
+
+enum StagedBytes<'a> {
+    Mapped(wgpu::BufferViewMut),
+    Direct(&'a mut [u8]),
+}
+
+impl StagedView<'_> {
+    /// The position, fine and colour regions.
+    pub fn regions(&mut self) -> StagedRegions<'_> {
+        let whole: wgpu::WriteOnly<'_, [u8]> = match &mut self.bytes {
+            StagedBytes::Mapped(view) => view.slice(..),
+            StagedBytes::Direct(bytes) => wgpu::WriteOnly::from(&mut **bytes),
+        };
+        let (positions, rest) = whole.split_at(self.fine_at);
+        let (fine, colors) = rest.split_at(self.colors_at - self.fine_at);
+        StagedRegions {
+            positions: StagedRegion(positions),
+            fine: StagedRegion(fine),
+            colors: StagedRegion(colors),
+        }
+    }
+}
+
 /// The regions of a mapped [`StagedBatch`], to be split between the threads that fill them.
 pub struct StagedRegions<'a> {
     pub positions: StagedRegion<'a>,
@@ -118,8 +198,54 @@ pub struct StagedRegions<'a> {
     pub colors: StagedRegion<'a>,
 }
 
-/// Bytes of a mapped [`StagedBatch`] that one thread writes.
+/// Bytes of a mapped [`StagedBatch`] that one thread writes, [`BUS_WRITERS`] threads at once.
 pub struct StagedRegion<'a>(pub(crate) wgpu::WriteOnly<'a, [u8]>);
+
+/// Threads that copy into upload memory at once. On a discrete GPU that memory is the
+/// resizable BAR's, written across the bus, and a few threads fill what it takes: on the H100
+/// machine one thread writes it at 15.3 GB/s, two at 30.4, four at 32.8, eight at 33.2 and
+/// sixteen at 31.4 (docs/BENCHMARKS.md, issue 11). Beyond those, a thread's copy only stalls
+/// its core, which a load needs for reading and encoding its next parts.
+pub const BUS_WRITERS: usize = 4;
+
+/// Counts the threads copying into mapped memory; others wait for one to finish.
+#[cfg(not(target_arch = "wasm32"))]
+struct BusWriters {
+    busy: std::sync::Mutex<usize>,
+    freed: std::sync::Condvar,
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+static BUS: BusWriters = BusWriters {
+    busy: std::sync::Mutex::new(0),
+    freed: std::sync::Condvar::new(),
+};
+
+/// Runs `copy` as one of at most [`BUS_WRITERS`] threads (a browser has one thread).
+fn as_bus_writer(copy: impl FnOnce()) {
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        /// Gives the place back however `copy` ends.
+        struct Seat;
+        impl Drop for Seat {
+            fn drop(&mut self) {
+                let mut busy = BUS.busy.lock().unwrap_or_else(|e| e.into_inner());
+                *busy -= 1;
+                BUS.freed.notify_one();
+            }
+        }
+        let mut busy = BUS.busy.lock().unwrap_or_else(|e| e.into_inner());
+        while *busy >= BUS_WRITERS {
+            busy = BUS.freed.wait(busy).unwrap_or_else(|e| e.into_inner());
+        }
+        *busy += 1;
+        drop(busy);
+        let _seat = Seat;
+        copy();
+    }
+    #[cfg(target_arch = "wasm32")]
+    copy();
+}
 
 // SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is;
 // wgpu implements Send only for sized targets.
@@ -142,19 +268,48 @@ impl<'a> StagedRegion<'a> {
                 self.0.len()
             )));
         }
-        self.0.copy_from_slice(bytes);
+        as_bus_writer(|| self.0.copy_from_slice(bytes));
         Ok(())
     }
 }
 
 impl StagedBatch {
-    /// Mapped upload memory for `capacity` points (from any thread).
+    /// Upload memory made by Vulkan directly for `capacity` points, mapped for good (from any
+    /// thread): `None` where it cannot be made so ([`UploadMemory::makes_directly`], or no
+    /// such memory type).
+    pub fn direct(
+        upload: &UploadMemory,
+        encoding: PointEncoding,
+        capacity: u64,
+    ) -> Result<Option<Self>, GpuError> {
+        let Some(direct) = &upload.direct else {
+            return Ok(None);
+        };
+        let bytes = capacity * region_bytes(encoding).iter().sum::<u64>();
+        let usage = wgpu::BufferUsages::COPY_SRC;
+        let Some(memory) = direct.upload_buffer("staged batch", bytes.max(4), usage)? else {
+            return Ok(None);
+        };
+        Ok(Some(Self {
+            memory: StagedMemory::Direct(Box::new(DirectStaging {
+                memory,
+                queue: upload.queue.clone(),
+            })),
+            encoding,
+            capacity,
+            count: 0,
+            dequantize: None,
+        }))
+    }
+
+    /// Upload memory wgpu maps, for `capacity` points, mapped (from any thread).
     pub fn new(
-        device: &wgpu::Device,
+        upload: &UploadMemory,
         encoding: PointEncoding,
         capacity: u64,
     ) -> Result<Self, GpuError> {
         let bytes = capacity * region_bytes(encoding).iter().sum::<u64>();
+        let device = &upload.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -175,7 +330,7 @@ impl StagedBatch {
             )));
         }
         Ok(Self {
-            buffer,
+            memory: StagedMemory::Mapped(buffer),
             encoding,
             capacity,
             count: 0,
@@ -183,25 +338,45 @@ impl StagedBatch {
         })
     }
 
+    /// Whether Vulkan made the batch's memory ([`direct`](Self::direct)).
+    pub fn is_direct(&self) -> bool {
+        matches!(self.memory, StagedMemory::Direct(_))
+    }
+
+    fn buffer(&self) -> &wgpu::Buffer {
+        match &self.memory {
+            StagedMemory::Mapped(buffer) => buffer,
+            StagedMemory::Direct(direct) => direct.memory.buffer(),
+        }
+    }
+
     /// Points the batch has room for.
     pub fn capacity(&self) -> u64 {
         self.capacity
     }
 
-    /// Maps the batch for writing again once the GPU is done with it (its copy was submitted)
-    /// and hands it to `ready` then, on the thread that polls the device; on a mapping error
-    /// the batch is dropped. A new mapping is zero-filled by one thread before anything is
-    /// written (wgpu initializes memory on first map): a reused batch skips that and the
-    /// allocation.
+    /// Hands the batch to `ready`, writable again, once the GPU is done with it (its copy was
+    /// submitted), on the thread that polls the device: mapped again (on a mapping error the
+    /// batch is dropped), or host memory once the queue's work so far is done. A new mapping
+    /// is zero-filled by one thread before anything is written (wgpu initializes memory on
+    /// first map): a reused batch skips that and the allocation.
     pub fn recycle(mut self, ready: impl FnOnce(StagedBatch) + Send + 'static) {
         self.count = 0;
         self.dequantize = None;
-        let buffer = self.buffer.clone();
-        buffer.map_async(wgpu::MapMode::Write, .., move |mapped| {
-            if mapped.is_ok() {
-                ready(self);
+        match &self.memory {
+            StagedMemory::Mapped(buffer) => {
+                let buffer = buffer.clone();
+                buffer.map_async(wgpu::MapMode::Write, .., move |mapped| {
+                    if mapped.is_ok() {
+                        ready(self);
+                    }
+                });
             }
-        });
+            StagedMemory::Direct(direct) => {
+                let queue = direct.queue.clone();
+                queue.on_submitted_work_done(move || ready(self));
+            }
+        }
     }
 
     /// Whether the position region holds stored positions for the GPU to dequantize.
@@ -233,31 +408,32 @@ impl StagedBatch {
         ]
     }
 
-    /// A write view of the whole mapping; [`regions`](Self::regions) splits it. Drop it
-    /// before [`finish`](Self::finish).
-    pub fn map(&self) -> Result<wgpu::BufferViewMut, GpuError> {
-        self.buffer
-            .get_mapped_range_mut(..)
-            .map_err(|e| GpuError::InvalidInput(format!("writing a staged batch: {e}")))
-    }
-
-    /// The position, fine and colour regions of `view` (this batch's [`map`](Self::map)).
-    pub fn regions<'a>(&self, view: &'a mut wgpu::BufferViewMut) -> StagedRegions<'a> {
+    /// A write view of the whole batch; [`StagedView::regions`] splits it. Drop it before
+    /// [`finish`](Self::finish).
+    pub fn map(&mut self) -> Result<StagedView<'_>, GpuError> {
         let [_, fine_at, colors_at] = self.region_starts().map(|b| b as usize);
-        let (positions_region, rest) = view.slice(..).split_at(fine_at);
-        let (fine_region, colors) = rest.split_at(colors_at - fine_at);
-        StagedRegions {
-            positions: StagedRegion(positions_region),
-            fine: StagedRegion(fine_region),
-            colors: StagedRegion(colors),
-        }
+        let bytes = match &mut self.memory {
+            StagedMemory::Mapped(buffer) => StagedBytes::Mapped(
+                buffer
+                    .get_mapped_range_mut(..)
+                    .map_err(|e| GpuError::InvalidInput(format!("writing a staged batch: {e}")))?,
+            ),
+            StagedMemory::Direct(direct) => StagedBytes::Direct(direct.memory.bytes()),
+        };
+        Ok(StagedView {
+            bytes,
+            fine_at,
+            colors_at,
+        })
     }
 
     /// Ends writing: the first `count` points of each region hold the batch. Every view of
-    /// the mapping must be dropped by now.
+    /// the batch must be dropped by now.
     pub fn finish(&mut self, count: u64) {
         self.count = count.min(self.capacity);
-        self.buffer.unmap();
+        if let StagedMemory::Mapped(buffer) = &self.memory {
+            buffer.unmap();
+        }
     }
 }
 
@@ -729,7 +905,7 @@ impl ShufflePass {
                 let dsts = [&staging.positions, &staging.fine, &staging.colors];
                 for ((at, size), dst) in starts.into_iter().zip(sizes).zip(dsts) {
                     if size > 0 {
-                        enc.copy_buffer_to_buffer(&b.buffer, at, dst, 0, size);
+                        enc.copy_buffer_to_buffer(b.buffer(), at, dst, 0, size);
                     }
                 }
             }

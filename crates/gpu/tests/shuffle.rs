@@ -2,7 +2,7 @@
 //! buffer land exactly where `ShufflePermutation::target` (or a store's `GroupRows`) puts
 //! them, and the shader's 32-bit
 //! modular arithmetic is exact up to primes just below 2^32. Batches go through the queue or
-//! through mapped upload memory (`StagedBatch`), alternately.
+//! through upload memory (`StagedBatch`: made by Vulkan or mapped by wgpu), alternately.
 
 mod common;
 
@@ -10,7 +10,7 @@ use pointlet_core::progressive::{prime_3_mod_4_at_most, GroupRows, ShufflePermut
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
     montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents,
-    StagedBatch,
+    StagedBatch, UploadMemory,
 };
 use pointlet_gpu::{encode_point, GpuContext, GpuError, PointEncoding};
 
@@ -69,13 +69,26 @@ fn placed(
     out
 }
 
-/// Scatters `loaded` in batches of the given sizes (the last takes the rest).
+/// Upload memory made by Vulkan directly (lavapipe's memory, which the host sees) besides
+/// the memory wgpu maps.
+fn upload_memory(ctx: &GpuContext) -> UploadMemory {
+    let upload = UploadMemory::new(ctx);
+    assert!(
+        upload.makes_directly(),
+        "no upload memory made directly on Vulkan"
+    );
+    upload
+}
+
+/// Scatters `loaded` in batches of the given sizes (the last takes the rest): every other
+/// one through a staged batch, those made by Vulkan and mapped by wgpu by turns.
 fn scatter_in_batches(
     ctx: &GpuContext,
     pass: &mut ShufflePass,
     dst: &ShuffledBuffer,
     loaded: &ShuffledContents,
     sizes: &[usize],
+    upload: &UploadMemory,
 ) {
     let words = (dst.encoding().position_bytes() / 4) as usize;
     let fine_words = usize::from(!loaded.fine.is_empty());
@@ -93,7 +106,7 @@ fn scatter_in_batches(
             colors: &loaded.colors[first..end],
         };
         if k % 2 == 1 {
-            scatter_staged(ctx, pass, dst, first as u32, batch);
+            scatter_staged(ctx, upload, k / 2 % 2 == 0, pass, dst, first as u32, batch);
         } else {
             pass.scatter(ctx, dst, first as u32, batch).unwrap();
         }
@@ -102,18 +115,49 @@ fn scatter_in_batches(
 }
 
 /// `batch` written into a staged batch with room to spare (the regions' offsets follow from
-/// the capacity), each region in two halves as two threads would.
+/// the capacity), in memory Vulkan made or memory wgpu maps, and scattered.
 fn scatter_staged(
     ctx: &GpuContext,
+    upload: &UploadMemory,
+    direct: bool,
     pass: &mut ShufflePass,
     dst: &ShuffledBuffer,
     first: u32,
     batch: EncodedBatch<'_>,
 ) {
+    let mut staged = staged_batch(
+        upload,
+        direct,
+        dst.encoding(),
+        batch.colors.len() as u64 + 3,
+    );
+    write_staged(&mut staged, batch);
+    pass.scatter_staged(ctx, dst, first, &staged).unwrap();
+}
+
+fn staged_batch(
+    upload: &UploadMemory,
+    direct: bool,
+    encoding: PointEncoding,
+    capacity: u64,
+) -> StagedBatch {
+    let staged = if direct {
+        StagedBatch::direct(upload, encoding, capacity)
+            .unwrap()
+            .unwrap()
+    } else {
+        StagedBatch::new(upload, encoding, capacity).unwrap()
+    };
+    assert_eq!(staged.is_direct(), direct);
+    staged
+}
+
+/// Writes `batch` into `staged`, each region in two halves as two threads would, and
+/// finishes it.
+fn write_staged(staged: &mut StagedBatch, batch: EncodedBatch<'_>) {
     let count = batch.colors.len();
-    let mut staged = StagedBatch::new(&ctx.device, dst.encoding(), count as u64 + 3).unwrap();
     let mut view = staged.map().unwrap();
-    let regions = staged.regions(&mut view);
+    let regions = view.regions();
     let half = count / 2;
     for (region, words) in [
         (regions.positions, batch.positions),
@@ -128,12 +172,12 @@ fn scatter_staged(
     }
     drop(view);
     staged.finish(count as u64);
-    pass.scatter_staged(ctx, dst, first, &staged).unwrap();
 }
 
 #[test]
 fn batches_land_where_the_cpu_permutation_puts_them() {
     let ctx = common::context();
+    let upload = upload_memory(&ctx);
     let mut pass = ShufflePass::new(&ctx).unwrap();
     // Not a prime: the slots above P stay in place. Batch sizes cross chunk borders, and one
     // outgrows the first staging allocation.
@@ -152,7 +196,7 @@ fn batches_land_where_the_cpu_permutation_puts_them() {
         };
         assert_eq!(dst.chunk_count(), expected_chunks);
         let loaded = points(n, encoding, n as u64 ^ chunk_slots as u64);
-        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes);
+        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes, &upload);
         let got = dst.read(&ctx).unwrap();
         let want = reference(&loaded, n, encoding);
         assert_eq!(got.colors.len(), n as usize);
@@ -170,9 +214,54 @@ fn batches_land_where_the_cpu_permutation_puts_them() {
     }
 }
 
+/// One staged batch of each kind carries a whole load: each batch comes back through
+/// `recycle` once the GPU has copied it, and the next one is written into the same memory.
+#[test]
+fn a_recycled_staged_batch_carries_the_next_batch() {
+    let ctx = common::context();
+    let upload = upload_memory(&ctx);
+    let mut pass = ShufflePass::new(&ctx).unwrap();
+    let (n, size) = (50_000u32, 7_000usize);
+    let loaded = points(n, PointEncoding::Full16, 11);
+    let want = reference(&loaded, n, PointEncoding::Full16);
+    for direct in [true, false] {
+        let dst = ShuffledBuffer::new(&ctx, PointEncoding::Full16, n).unwrap();
+        let (back, returned) = std::sync::mpsc::channel();
+        let mut staged = Some(staged_batch(
+            &upload,
+            direct,
+            PointEncoding::Full16,
+            size as u64,
+        ));
+        for first in (0..n as usize).step_by(size) {
+            let mut b = staged.take().unwrap_or_else(|| {
+                ctx.wait().unwrap();
+                returned
+                    .recv_timeout(std::time::Duration::from_secs(10))
+                    .expect("the batch came back once the GPU was done with it")
+            });
+            let end = (first + size).min(n as usize);
+            let batch = EncodedBatch {
+                positions: &loaded.positions[first * 3..end * 3],
+                fine: &[],
+                colors: &loaded.colors[first..end],
+            };
+            write_staged(&mut b, batch);
+            pass.scatter_staged(&ctx, &dst, first as u32, &b).unwrap();
+            let back = back.clone();
+            b.recycle(move |b| {
+                let _ = back.send(b);
+            });
+        }
+        let got = dst.read(&ctx).unwrap();
+        assert!(got == want, "made directly: {direct}: the streams differ");
+    }
+}
+
 #[test]
 fn batches_of_interleaved_groups_land_row_by_row() {
     let ctx = common::context();
+    let upload = upload_memory(&ctx);
     let mut pass = ShufflePass::new(&ctx).unwrap();
     // Groups with a short last group (300 010 = 292 · 1024 + 1 002); batches that
     // start and end inside groups, cross chunk borders and outgrow the first staging; a
@@ -208,7 +297,7 @@ fn batches_of_interleaved_groups_land_row_by_row() {
         assert_eq!((dst.slots(), dst.order()), (slots, order));
         assert_eq!(dst.placed(), order.placed());
         let loaded = points(n, encoding, 7 + slots as u64);
-        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes);
+        scatter_in_batches(&ctx, &mut pass, &dst, &loaded, &sizes, &upload);
         let got = dst.read(&ctx).unwrap();
         let want = placed(&loaded, order, slots, encoding);
         let wrong = (0..slots as usize)
@@ -237,6 +326,7 @@ fn ulps(a: f32, b: f32, at: f32) -> f64 {
 #[test]
 fn stored_positions_are_dequantized_on_the_gpu_within_an_ulp() {
     let ctx = common::context();
+    let upload = UploadMemory::new(&ctx);
     let mut pass = ShufflePass::new(&ctx).unwrap();
     // A LAS-like quantization (mm, inexact in binary) far from the origin, and a coarse one.
     let cases = [
@@ -267,10 +357,10 @@ fn stored_positions_are_dequantized_on_the_gpu_within_an_ulp() {
             })
             .collect();
         let dst = ShuffledBuffer::new(&ctx, PointEncoding::Full16, n).unwrap();
-        let mut staged = StagedBatch::new(&ctx.device, PointEncoding::Full16, n as u64).unwrap();
+        let mut staged = StagedBatch::new(&upload, PointEncoding::Full16, n as u64).unwrap();
         let colors: Vec<u32> = (0..n).collect();
         let mut view = staged.map().unwrap();
-        let regions = staged.regions(&mut view);
+        let regions = view.regions();
         let (mut p, mut c) = (regions.positions, regions.colors);
         p.write(&stored).unwrap();
         c.write(&colors).unwrap();
@@ -318,7 +408,7 @@ fn stored_positions_are_dequantized_on_the_gpu_within_an_ulp() {
         );
     }
     // Compact8 batches keep 8 bytes a point: stored positions do not fit them.
-    let mut compact = StagedBatch::new(&ctx.device, PointEncoding::Compact8, 4).unwrap();
+    let mut compact = StagedBatch::new(&upload, PointEncoding::Compact8, 4).unwrap();
     assert!(compact
         .set_dequantize(Dequantize::new([1.0; 3], [0.0; 3], [0.0; 3]))
         .is_err());
