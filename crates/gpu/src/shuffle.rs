@@ -158,6 +158,10 @@ enum StagedMemory {
 struct DirectStaging {
     memory: MappedBuffer,
     /// Says when the GPU is done copying the batch.
+    #[cfg_attr(
+        target_arch = "wasm32",
+        expect(dead_code, reason = "a browser makes no memory directly")
+    )]
     queue: wgpu::Queue,
 }
 
@@ -372,10 +376,14 @@ impl StagedBatch {
                     }
                 });
             }
+            // A browser has no memory made directly (nor a batch that may cross threads).
+            #[cfg(not(target_arch = "wasm32"))]
             StagedMemory::Direct(direct) => {
                 let queue = direct.queue.clone();
                 queue.on_submitted_work_done(move || ready(self));
             }
+            #[cfg(target_arch = "wasm32")]
+            StagedMemory::Direct(_) => drop(ready),
         }
     }
 
