@@ -876,7 +876,7 @@ fn decode_batch(
     check_fits(job, first, points)?;
     let words = if job.colors_only { 0 } else { WORDS };
     // Within the reservoir's capacity and once the GPU is there, straight into upload memory.
-    let staged = job
+    let mut staged = job
         .shared
         .upload
         .get()
@@ -892,7 +892,6 @@ fn decode_batch(
         staged: None,
         read: points,
     };
-    let mut staged = staged;
     let mut view = staged
         .as_mut()
         .map(StagedBatch::map)

@@ -2,7 +2,10 @@
 # Session 48, call 5: how many threads should copy into the BAR at once while a store loads:
 # BUS_WRITERS = 4 (w4 = .dev/pointlet-dir.xz, call 4's build), 6 (.dev/pointlet-w6.xz) and 8
 # (.dev/pointlet-w8.xz), each with direct BAR batches. The 1 G lean store with
-# `bench --progressive --realtime --target-fps 60`, alternated, two rounds.
+# `bench --progressive --realtime --target-fps 60`, alternated, two rounds. Prepared, not run:
+# no device time was left. Binaries: `cargo build --release -p pointlet` of 53dcdda or later
+# with `pub const BUS_WRITERS` in crates/gpu/src/shuffle.rs set to 4, 6 and 8, each
+# `objcopy --strip-debug`, `xz -3`; .gl as in the device README.
 # Run: run(command="bash docs/bench/issue11/session48/5-h100-writer-count/call.sh",
 #   carry=[".dev", ".gl"])
 set -uo pipefail
