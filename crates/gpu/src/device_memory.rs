@@ -88,9 +88,9 @@ impl DirectAllocator {
             self.raw
                 .map_memory(made.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
         }
-        .map_err(|e| GpuError::Device(format!("mapping {size} bytes of host memory: {e}")))?;
+        .map_err(|e| GpuError::Device(format!("mapping {size} bytes of memory: {e}")))?;
         let len = usize::try_from(size)
-            .map_err(|_| GpuError::InvalidInput(format!("{size} bytes of host memory")))?;
+            .map_err(|_| GpuError::InvalidInput(format!("{size} bytes of mapped memory")))?;
         let buffer = self.hand_over(made, label, size, usage);
         Ok(Some(MappedBuffer {
             buffer,
@@ -169,7 +169,7 @@ impl DirectAllocator {
             mapped_at_creation: false,
         };
         // SAFETY: made by this device for `desc`'s size and usage; wgpu takes the contents as
-        // they are (point memory is zeroed by its maker, host memory written before use).
+        // they are (point memory is zeroed by its maker, mapped memory written before use).
         unsafe {
             self.device
                 .create_buffer_from_hal::<wgpu::hal::api::Vulkan>(hal, &desc)

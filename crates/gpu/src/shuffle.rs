@@ -361,9 +361,9 @@ impl StagedBatch {
 
     /// Hands the batch to `ready`, writable again, once the GPU is done with it (its copy was
     /// submitted), on the thread that polls the device: mapped again (on a mapping error the
-    /// batch is dropped), or host memory once the queue's work so far is done. A new mapping
-    /// is zero-filled by one thread before anything is written (wgpu initializes memory on
-    /// first map): a reused batch skips that and the allocation.
+    /// batch is dropped), or, memory Vulkan made, once the queue's work so far is done. A new
+    /// mapping is zero-filled by one thread before anything is written (wgpu initializes memory
+    /// on first map): a reused batch skips that and the allocation.
     pub fn recycle(mut self, ready: impl FnOnce(StagedBatch) + Send + 'static) {
         self.count = 0;
         self.dequantize = None;
