@@ -7,6 +7,7 @@ use crate::bench_cmd::{write_series, Args, Flight};
 use crate::progressive_cmd;
 use anyhow::{bail, Context, Result};
 use pointlet_engine::progressive::LoadProgress;
+use pointlet_gpu::shuffle::{bus_time, BusTime};
 use pointlet_gpu::{GpuContext, RenderTarget};
 use pointlet_report::{FrameStats, Series, StageBreakdown};
 use serde::Serialize;
@@ -82,12 +83,41 @@ struct Summary<'a> {
     /// The load threads making new upload memory, and the load thread waiting for the render
     /// thread to take batches (s): which side bounded loading.
     staging_s: f64,
+    /// The threads copying into upload memory over the load and after the first frame (none
+    /// where no point went through upload memory, or the first frame showed everything).
+    bus: Option<BusUse>,
+    bus_after_first: Option<BusUse>,
     queue_waited_s: f64,
     /// Frame statistics of the frames drawn while loading.
     loading_stats: Option<FrameStats>,
     stats: &'a FrameStats,
     stages: &'a [pointlet_report::StageSummary],
     frames: &'a [Row],
+}
+
+/// How the threads copying into upload memory used the bus over a stretch of loading.
+#[derive(Serialize)]
+struct BusUse {
+    /// Share of the stretch with at least one copy going on.
+    busy_share: f64,
+    /// Copies going on at once, on average while there was any.
+    writers_mean: f64,
+    /// GB/s of one copy, and of all of them while any went on.
+    writer_gbs: f64,
+    busy_gbs: f64,
+}
+
+impl BusUse {
+    fn new(time: &BusTime, seconds: f64) -> BusUse {
+        let (busy, writing) = (time.busy.as_secs_f64(), time.writing.as_secs_f64());
+        let bytes = time.bytes as f64;
+        BusUse {
+            busy_share: busy / seconds,
+            writers_mean: writing / busy,
+            writer_gbs: bytes / writing / 1e9,
+            busy_gbs: bytes / busy / 1e9,
+        }
+    }
 }
 
 /// When loading reached the screen and when it ended, in seconds since opening.
@@ -97,6 +127,9 @@ struct LoadMarks {
     /// while drawing).
     first_frame: Option<(f64, u64)>,
     loaded_s: Option<f64>,
+    /// The upload bus's time at the first frame and once loaded.
+    bus_at_first: Option<BusTime>,
+    bus_at_loaded: Option<BusTime>,
 }
 
 impl LoadMarks {
@@ -106,9 +139,11 @@ impl LoadMarks {
             // The frame must have reached the screen to count.
             ctx.wait()?;
             self.first_frame = Some((began.elapsed().as_secs_f64(), progress.uploaded));
+            self.bus_at_first = Some(bus_time());
         }
         if self.loaded_s.is_none() && progress.is_finished() {
             self.loaded_s = Some(began.elapsed().as_secs_f64());
+            self.bus_at_loaded = Some(bus_time());
         }
         Ok(())
     }
@@ -130,6 +165,7 @@ pub fn run(args: &Args) -> Result<()> {
     );
     let vram_budget = config.vram_budget;
     let mut target = RenderTarget::new(&ctx, args.width, args.height)?;
+    let bus_at_open = bus_time();
     let began = Instant::now();
     let mut scene = progressive_cmd::open(&ctx, &inputs, config)?;
     let bounds = scene.bounds();
@@ -281,6 +317,30 @@ pub fn run(args: &Args) -> Result<()> {
         after_first_points_per_s / 1e6,
         after_first_points_per_s * 16.0 / 1e9
     );
+    // Over the whole load, and once drawing began.
+    let bus_use = |from: Option<BusTime>, from_s: f64| match (from, marks.bus_at_loaded) {
+        (Some(a), Some(b)) if loaded_s > from_s && b.bytes > a.bytes => {
+            Some(BusUse::new(&b.since(&a), loaded_s - from_s))
+        }
+        _ => None,
+    };
+    let bus = bus_use(Some(bus_at_open), 0.0);
+    let bus_after_first = bus_use(marks.bus_at_first, first_frame_s);
+    for (when, b) in [
+        ("loading", &bus),
+        ("after the first frame", &bus_after_first),
+    ] {
+        if let Some(b) = b {
+            println!(
+                "upload bus, {when}: copies going on {:.1} % of the time, {:.2} at once on \
+                 average, each at {:.1} GB/s, {:.1} GB/s while any was",
+                b.busy_share * 100.0,
+                b.writers_mean,
+                b.writer_gbs,
+                b.busy_gbs
+            );
+        }
+    }
     println!(
         "converged {converge_s:.3} s ({converge_frames} frames) after the path ended; \
          {:.2} % of the points drawn per frame on average",
@@ -368,6 +428,8 @@ pub fn run(args: &Args) -> Result<()> {
             open_buffers_s: open.buffers.as_secs_f64(),
             gpu_bytes: scene.gpu_bytes(),
             staging_s: progress.staging.as_secs_f64(),
+            bus,
+            bus_after_first,
             queue_waited_s: progress.queue_waited.as_secs_f64(),
             loading_stats,
             stats: &stats,

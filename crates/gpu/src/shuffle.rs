@@ -212,43 +212,114 @@ pub struct StagedRegion<'a>(pub(crate) wgpu::WriteOnly<'a, [u8]>);
 /// its core, which a load needs for reading and encoding its next parts.
 pub const BUS_WRITERS: usize = 4;
 
-/// Counts the threads copying into mapped memory; others wait for one to finish.
+/// Counts the threads copying into mapped memory (others wait for one to finish) and how
+/// long the bus had any.
 #[cfg(not(target_arch = "wasm32"))]
 struct BusWriters {
-    busy: std::sync::Mutex<usize>,
+    state: std::sync::Mutex<BusState>,
     freed: std::sync::Condvar,
 }
 
 #[cfg(not(target_arch = "wasm32"))]
+struct BusState {
+    writers: usize,
+    /// When the bus last went from no writer to one.
+    since: Option<std::time::Instant>,
+    time: BusTime,
+}
+
+/// What the threads copying into upload memory did since the process started: whether a load
+/// kept the bus busy or left it waiting for data.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BusTime {
+    /// Time at least one thread was copying.
+    pub busy: std::time::Duration,
+    /// Time of all copies added up (busy × the mean number of writers).
+    pub writing: std::time::Duration,
+    pub bytes: u64,
+}
+
+#[cfg(not(target_arch = "wasm32"))]
 static BUS: BusWriters = BusWriters {
-    busy: std::sync::Mutex::new(0),
+    state: std::sync::Mutex::new(BusState {
+        writers: 0,
+        since: None,
+        time: BusTime {
+            busy: std::time::Duration::ZERO,
+            writing: std::time::Duration::ZERO,
+            bytes: 0,
+        },
+    }),
     freed: std::sync::Condvar::new(),
 };
 
-/// Runs `copy` as one of at most [`BUS_WRITERS`] threads (a browser has one thread).
-fn as_bus_writer(copy: impl FnOnce()) {
+/// The bus's time so far (a browser's stays zero: it has no clock of that kind).
+pub fn bus_time() -> BusTime {
     #[cfg(not(target_arch = "wasm32"))]
     {
+        let state = BUS.state.lock().unwrap_or_else(|e| e.into_inner());
+        let mut time = state.time;
+        // A copy going on now counts up to now.
+        time.busy += state
+            .since
+            .map_or(std::time::Duration::ZERO, |s| s.elapsed());
+        time
+    }
+    #[cfg(target_arch = "wasm32")]
+    BusTime::default()
+}
+
+impl BusTime {
+    /// What was added between `earlier` and `self`.
+    pub fn since(&self, earlier: &BusTime) -> BusTime {
+        BusTime {
+            busy: self.busy.saturating_sub(earlier.busy),
+            writing: self.writing.saturating_sub(earlier.writing),
+            bytes: self.bytes.saturating_sub(earlier.bytes),
+        }
+    }
+}
+
+/// Runs `copy` of `bytes` as one of at most [`BUS_WRITERS`] threads (a browser has one thread).
+fn as_bus_writer(bytes: usize, copy: impl FnOnce()) {
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        use std::time::Instant;
         /// Gives the place back however `copy` ends.
-        struct Seat;
+        struct Seat(Instant, usize);
         impl Drop for Seat {
             fn drop(&mut self) {
-                let mut busy = BUS.busy.lock().unwrap_or_else(|e| e.into_inner());
-                *busy -= 1;
+                let now = Instant::now();
+                let mut state = BUS.state.lock().unwrap_or_else(|e| e.into_inner());
+                state.writers -= 1;
+                state.time.writing += now - self.0;
+                state.time.bytes += self.1 as u64;
+                if state.writers == 0 {
+                    if let Some(since) = state.since.take() {
+                        state.time.busy += now - since;
+                    }
+                }
                 BUS.freed.notify_one();
             }
         }
-        let mut busy = BUS.busy.lock().unwrap_or_else(|e| e.into_inner());
-        while *busy >= BUS_WRITERS {
-            busy = BUS.freed.wait(busy).unwrap_or_else(|e| e.into_inner());
+        let mut state = BUS.state.lock().unwrap_or_else(|e| e.into_inner());
+        while state.writers >= BUS_WRITERS {
+            state = BUS.freed.wait(state).unwrap_or_else(|e| e.into_inner());
         }
-        *busy += 1;
-        drop(busy);
-        let _seat = Seat;
+        let now = Instant::now();
+        if state.writers == 0 {
+            state.since = Some(now);
+        }
+        state.writers += 1;
+        drop(state);
+        let _seat = Seat(now, bytes);
         copy();
     }
     #[cfg(target_arch = "wasm32")]
-    copy();
+    {
+        let _ = bytes;
+        copy();
+    }
 }
 
 // SAFETY: a WriteOnly<[u8]> is a unique pointer to bytes, as `&mut [u8]` (which is Send) is;
@@ -272,7 +343,7 @@ impl<'a> StagedRegion<'a> {
                 self.0.len()
             )));
         }
-        as_bus_writer(|| self.0.copy_from_slice(bytes));
+        as_bus_writer(bytes.len(), || self.0.copy_from_slice(bytes));
         Ok(())
     }
 }
