@@ -178,6 +178,9 @@ pub struct StoreBuilder {
     claimed: u64,
     rl: RecordLayout,
     run: Run,
+    /// Whether the run's spare room is still the allocator's zero pages, written by no one:
+    /// its parts then need no zeroing before they are decoded into it.
+    run_untouched: bool,
     run_capacity: usize,
     /// Whether runs spill in the background ([`runs::SPILLERS`] at once) while one fills.
     overlap: bool,
@@ -333,6 +336,7 @@ impl StoreBuilder {
             claimed: meta.point_count,
             rl,
             run: Run::default(),
+            run_untouched: false,
             run_capacity,
             overlap,
             io_chunk,
@@ -453,13 +457,20 @@ impl StoreBuilder {
         let (q, grid, rl, want) = (self.quantization, self.grid, &self.rl, self.layout);
         let (pushed, claimed, progress) = (self.pushed, self.claimed, &self.progress);
         let output = &self.output;
+        let untouched = self.run_untouched;
         let done = AtomicU64::new(0);
         let results: Vec<Result<DecodedPart, StoreError>> = jobs
             .into_par_iter()
             .map_init(
                 || (PointBatch::default(), Vec::new(), PartBuckets::default()),
                 |(batch, scratch, tables), (part, at, recs, pairs)| {
-                    let (recs, pairs) = (zeroed_in_place(recs), zeroed_in_place(pairs));
+                    let (recs, pairs) = if untouched {
+                        // SAFETY: the run's spare room is zero pages from the allocator that
+                        // nothing wrote since (`run_untouched`), and zero bytes are valid.
+                        unsafe { (assume_zeroed(recs), assume_zeroed(pairs)) }
+                    } else {
+                        (zeroed_in_place(recs), zeroed_in_place(pairs))
+                    };
                     // Parts that store positions as integers of the store's quantization decode
                     // straight into their rows: no f64 round trip, no columns in between.
                     let seq = pushed + (at - n0) as u64;
@@ -578,24 +589,31 @@ impl StoreBuilder {
             self.run.pairs.clear();
             pio::huge_pages(&self.run.records);
             pio::huge_pages(&self.run.pairs);
+            self.run_untouched = true;
         }
-        Self::grow(&mut self.run.pairs, n0 + add, expected, cap);
-        Self::grow(
-            &mut self.run.records,
-            (n0 + add) * rb,
-            expected.saturating_mul(rb),
-            cap * rb,
-        );
+        let moved = Self::grow(&mut self.run.pairs, n0 + add, expected, cap)
+            | Self::grow(
+                &mut self.run.records,
+                (n0 + add) * rb,
+                expected.saturating_mul(rb),
+                cap * rb,
+            );
+        if moved {
+            self.run_untouched = false;
+        }
     }
 
     /// Grows a run column to hold `need` items: at once to `expected` (what the source still
     /// claims), then by doubling, never past `cap` (the run's capacity).
-    fn grow<T>(v: &mut Vec<T>, need: usize, expected: usize, cap: usize) {
-        if v.capacity() < need {
-            let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
-            v.reserve_exact(target - v.len());
-            pio::huge_pages(v);
+    /// Whether it reallocated.
+    fn grow<T>(v: &mut Vec<T>, need: usize, expected: usize, cap: usize) -> bool {
+        if v.capacity() >= need {
+            return false;
         }
+        let target = need.max(expected.min(cap)).max((2 * v.capacity()).min(cap));
+        v.reserve_exact(target - v.len());
+        pio::huge_pages(v);
+        true
     }
 
     /// Quantizes, keys and packs points `[start, start + n)` of `batch` into the run.
@@ -662,6 +680,7 @@ impl StoreBuilder {
             }
         };
         let full = std::mem::replace(&mut self.run, reuse);
+        self.run_untouched = false;
         spiller.start(runs::temp_name(&self.run_dir, &self.stem, "run"), full)?;
         if !self.overlap {
             self.drain_spills()?;
@@ -999,6 +1018,15 @@ fn zeroed_in_place<T: bytemuck::Zeroable>(s: &mut [std::mem::MaybeUninit<T>]) ->
         std::ptr::write_bytes(s.as_mut_ptr(), 0, s.len());
         &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T])
     }
+}
+
+/// `s` as initialized items, without writing it.
+///
+/// # Safety
+/// Every byte of `s` must be zero already (and all-zero bytes a valid `T`).
+unsafe fn assume_zeroed<T: bytemuck::Zeroable>(s: &mut [std::mem::MaybeUninit<T>]) -> &mut [T] {
+    // SAFETY: the caller's promise: the bytes are initialized, and zero.
+    unsafe { &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T]) }
 }
 
 /// Lengthens `v` to `len` with zeros written on every core: a run of gigabytes would
