@@ -9,8 +9,8 @@ mod common;
 use pointlet_core::progressive::{prime_3_mod_4_at_most, GroupRows, ShufflePermutation, SlotOrder};
 use pointlet_core::shuffle::SplitMix64;
 use pointlet_gpu::shuffle::{
-    montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer, ShuffledContents,
-    StagedBatch, UploadMemory,
+    bus_time, montgomery_constants, Dequantize, EncodedBatch, ShufflePass, ShuffledBuffer,
+    ShuffledContents, StagedBatch, UploadMemory,
 };
 use pointlet_gpu::{encode_point, GpuContext, GpuError, PointEncoding};
 
@@ -255,6 +255,36 @@ fn a_recycled_staged_batch_carries_the_next_batch() {
         }
         let got = dst.read(&ctx).unwrap();
         assert!(got == want, "made directly: {direct}: the streams differ");
+    }
+}
+
+#[test]
+fn the_bus_counts_what_its_writers_copy() {
+    let ctx = common::context();
+    let upload = upload_memory(&ctx);
+    let n = 20_000u32;
+    let loaded = points(n, PointEncoding::Full16, 5);
+    let batch = EncodedBatch {
+        positions: &loaded.positions,
+        fine: &[],
+        colors: &loaded.colors,
+    };
+    let bytes = 4 * (batch.positions.len() + batch.colors.len()) as u64;
+    for direct in [true, false] {
+        let mut staged = staged_batch(&upload, direct, PointEncoding::Full16, u64::from(n));
+        let before = bus_time();
+        write_staged(&mut staged, batch);
+        // Other tests may copy meanwhile: this one's copies are at least in the counts.
+        let added = bus_time().since(&before);
+        assert!(
+            added.bytes >= bytes,
+            "{} of {bytes} bytes counted",
+            added.bytes
+        );
+        assert!(
+            added.busy > std::time::Duration::ZERO && added.writing > std::time::Duration::ZERO,
+            "{added:?}"
+        );
     }
 }
 
