@@ -360,21 +360,16 @@ impl StagedBatch {
         let Some(direct) = &upload.direct else {
             return Ok(None);
         };
-        let bytes = capacity * region_bytes(encoding).iter().sum::<u64>();
+        let bytes = Self::bytes_for(encoding, capacity);
         let usage = wgpu::BufferUsages::COPY_SRC;
-        let Some(memory) = direct.upload_buffer("staged batch", bytes.max(4), usage)? else {
+        let Some(memory) = direct.upload_buffer("staged batch", bytes, usage)? else {
             return Ok(None);
         };
-        Ok(Some(Self {
-            memory: StagedMemory::Direct(Box::new(DirectStaging {
-                memory,
-                queue: upload.queue.clone(),
-            })),
-            encoding,
-            capacity,
-            count: 0,
-            dequantize: None,
-        }))
+        let memory = StagedMemory::Direct(Box::new(DirectStaging {
+            memory,
+            queue: upload.queue.clone(),
+        }));
+        Ok(Some(Self::empty(memory, encoding, capacity)))
     }
 
     /// Upload memory wgpu maps, for `capacity` points, mapped (from any thread).
@@ -383,13 +378,13 @@ impl StagedBatch {
         encoding: PointEncoding,
         capacity: u64,
     ) -> Result<Self, GpuError> {
-        let bytes = capacity * region_bytes(encoding).iter().sum::<u64>();
+        let bytes = Self::bytes_for(encoding, capacity);
         let device = &upload.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("staged batch"),
-            size: bytes.max(4),
+            size: bytes,
             usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: true,
         });
@@ -404,13 +399,27 @@ impl StagedBatch {
                 "allocating a staged batch: {e}"
             )));
         }
-        Ok(Self {
-            memory: StagedMemory::Mapped(buffer),
+        Ok(Self::empty(
+            StagedMemory::Mapped(buffer),
+            encoding,
+            capacity,
+        ))
+    }
+
+    /// Bytes of the regions of `capacity` points (at least 4: no buffer is empty).
+    fn bytes_for(encoding: PointEncoding, capacity: u64) -> u64 {
+        (capacity * region_bytes(encoding).iter().sum::<u64>()).max(4)
+    }
+
+    /// A batch of nothing yet in `memory`.
+    fn empty(memory: StagedMemory, encoding: PointEncoding, capacity: u64) -> Self {
+        Self {
+            memory,
             encoding,
             capacity,
             count: 0,
             dequantize: None,
-        })
+        }
     }
 
     /// Whether Vulkan made the batch's memory ([`direct`](Self::direct)).

@@ -1013,10 +1013,10 @@ impl StoreBuilder {
 
 /// `s` zeroed, as initialized items (zero bytes are a valid `T`).
 fn zeroed_in_place<T: bytemuck::Zeroable>(s: &mut [std::mem::MaybeUninit<T>]) -> &mut [T] {
-    // SAFETY: every byte of `s` is written, and all-zero bytes are a valid `T` (`Zeroable`).
+    // SAFETY: every byte of `s` is zeroed here, and all-zero bytes are a valid `T`.
     unsafe {
         std::ptr::write_bytes(s.as_mut_ptr(), 0, s.len());
-        &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T])
+        assume_zeroed(s)
     }
 }
 
