@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Session 50, call 2: a store's progressive load is CPU-bound (call 1: the pool's threads
+# running 80-96 % of the samples while loading) and the RGB colour loop had 19.6 % of its
+# CPU samples (a byte gather with a variable place and bounds checks). base = the code before,
+# rgb = that loop with the byte's place a constant and eight points at a time, p16 = rgb with
+# 16 384-point parts instead of 65 536 (a part's buffers in the L2 cache). The 1 G lean store
+# and the 200 M store, `bench --progressive --realtime --target-fps 60`, alternated, three rounds.
+# Binaries: `cargo build --release -p pointlet`, `strip --strip-all`, `xz -9e`, as
+# .dev/pointlet-{base,rgb,p16}.xz; .gl as in the device README.
+# Run: run(command="bash docs/bench/issue11/session50/1-h100-colour-loop/call.sh", carry=[".dev", ".gl"])
+set -uo pipefail
+mkdir -p $OUT/c; exec > >(tee "$OUT/c/log.txt") 2>&1
+for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
+export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }
+V="base rgb p16"
+for v in $V; do X .dev/pointlet-$v.xz > /tmp/p-$v && chmod +x /tmp/p-$v; done
+# The session's first call found /tmp too full for the 1 G store (19 GB): the roomiest place.
+df -h /tmp . /dev/shm | cat
+W=$(for d in /tmp $PWD/..; do echo "$(df --output=avail -k $d | tail -1) $d"; done | sort -n | tail -1 | cut -d' ' -f2)/wt
+T=/tmp/res; mkdir -p $W $T; SECONDS=0; echo "stores in $W"
+nproc; grep -m1 'model name' /proc/cpuinfo
+B() { local name=$1 bin=$2 file=$3; shift 3; timeout 100 $bin bench $file --progressive --realtime --target-fps 60 --json $T/$name.json "$@" > $T/$name.txt 2>&1; echo "$name: $(grep -E '^loading:|after the first frame|^upload bus' $T/$name.txt | tr '\n' ' ' | cut -c1-900)"; grep -iE 'error|panick' $T/$name.txt | head -3; }
+timeout 180 /tmp/p-base generate --points 1G --lean -o $W/s1g.pointlet 2>&1 | tail -1
+timeout 100 /tmp/p-base generate --points 200M -o $W/s200.pointlet 2>&1 | tail -1
+sync; sleep 1; cat $W/s1g.pointlet $W/s200.pointlet > /dev/null
+for r in 1 2 3; do for v in $V; do
+  B s1g-$v-$r /tmp/p-$v $W/s1g.pointlet --orbit-seconds 2 --vram-budget 24GiB
+  B s200-$v-$r /tmp/p-$v $W/s200.pointlet --orbit-seconds 2
+done; done
+echo "at $SECONDS s"
+cd $T && tar czf $OUT/c/runs.tgz *.txt *.json
+rm -rf $W
