@@ -4,9 +4,11 @@
 //! read as progressive rendering reads it with `--progressive` (its pointlets as parts).
 //! `--color-only MODE` decodes only what colouring by MODE reads, as the progressive loader
 //! does (stores keep their columns apart; point files decode whole records anyway).
+//! `--staged` reads a store's parts as a progressive load hands them to the GPU: the load's
+//! CPU side without the bus.
 
 use anyhow::{anyhow, Result};
-use pointlet_core::color::ColorMode;
+use pointlet_core::color::{point_colors, ColorMode, ColorScale};
 use pointlet_core::{PartedSource, PointBatch};
 use pointlet_io::PointReader;
 use rayon::prelude::*;
@@ -24,6 +26,11 @@ pub struct Args {
     /// Decode positions and only what colouring by this mode reads (rgb, intensity, …).
     #[arg(long, value_parser = parse_mode)]
     pub color_only: Option<ColorMode>,
+    /// Stores only: each part's positions as stored and its colours (by `--color-only`'s
+    /// mode, RGB by default) made from the stored streams, both copied into buffers of their
+    /// own, as a progressive load writes them into upload memory.
+    #[arg(long, conflicts_with = "sequential")]
+    pub staged: bool,
     #[command(flatten)]
     pub read: crate::load::ReadArgs,
 }
@@ -70,10 +77,16 @@ pub fn run(args: Args) -> Result<()> {
     let files = readers.len();
     for mut r in readers {
         let tally = match r.parted().filter(|_| !args.sequential) {
+            Some(parts) if args.staged => {
+                parted_files += 1;
+                let mode = args.color_only.unwrap_or(ColorMode::Rgb);
+                stage_parts(r.as_ref(), parts, mode)?
+            }
             Some(parts) => {
                 parted_files += 1;
                 decode_parts(r.as_ref(), parts, args.color_only)?
             }
+            None if args.staged => return Err(not_a_store(r.as_ref())),
             None => decode_sequentially(r.as_mut())?,
         };
         total = total.add(tally);
@@ -88,8 +101,17 @@ pub fn run(args: Args) -> Result<()> {
         n if n == files => format!("in parts on {threads}"),
         n => format!("{n} of {files} files in parts on {threads}"),
     };
+    let staged = if args.staged {
+        // As `bench --progressive` counts a load: 16 bytes a point (position words, colour).
+        format!(
+            ", {:.1} GB/s of 16-byte points",
+            total.points as f64 * 16.0 / secs.max(1e-9) / 1e9
+        )
+    } else {
+        String::new()
+    };
     println!(
-        "decoded {} points in {secs:.2} s: {} (checksum {:.3}; {mode})",
+        "decoded {} points in {secs:.2} s: {}{staged} (checksum {:.3}; {mode})",
         total.points,
         crate::progress::points_per_second(total.points as f64 / secs.max(1e-9)),
         total.checksum
@@ -126,6 +148,73 @@ fn decode_parts(
             },
         )
         .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
+}
+
+/// What one thread keeps from part to part of [`stage_parts`].
+#[derive(Default)]
+struct Staging {
+    raw: Vec<u8>,
+    classes: Vec<u8>,
+    batch: PointBatch,
+    /// Stand-ins for upload memory (cached, unlike a GPU's BAR).
+    positions: Vec<u8>,
+    colors: Vec<u32>,
+    written: Vec<u32>,
+}
+
+/// Every part read as a progressive load reads a store's (`stored_part` in the engine): its
+/// positions as stored, its colours under `mode` from the stored streams (or its attributes
+/// decoded and coloured where the mode needs more), both copied out.
+fn stage_parts(r: &dyn PointReader, parts: &dyn PartedSource, mode: ColorMode) -> Result<Tally> {
+    if parts.quantized_positions().is_none() {
+        return Err(not_a_store(r));
+    }
+    let sizes = parts.part_sizes();
+    // The colouring a load would choose, fitted on the first part.
+    let mut sample = PointBatch::new(r.meta().layout);
+    if !sizes.is_empty() {
+        parts
+            .decode_part(0, &mut sample, &mut Vec::new())
+            .map_err(|e| anyhow!(e))?;
+    }
+    let b = r.meta().bounds;
+    let scale = ColorScale::fit(mode, &[&sample], [b.min[2], b.max[2]]);
+    (0..sizes.len())
+        .into_par_iter()
+        .map_init(Staging::default, |s, i| {
+            let n = sizes[i] as usize;
+            let bytes = parts
+                .read_quantized_positions(i, &mut s.raw)
+                .map_err(|e| anyhow!(e))?;
+            s.positions.clear();
+            s.positions.extend_from_slice(&s.raw[..bytes]);
+            s.colors.resize(n, 0);
+            let direct = parts
+                .stored_colors(i, &scale, &mut s.colors, &mut s.raw, &mut s.classes)
+                .map_err(|e| anyhow!(e))?;
+            if !direct {
+                parts
+                    .decode_attributes_for(i, &mut s.batch, &mut s.raw, mode)
+                    .map_err(|e| anyhow!(e))?;
+                point_colors(&s.batch, &scale, &mut s.colors);
+            }
+            s.written.clear();
+            s.written.extend_from_slice(&s.colors);
+            Ok(Tally {
+                points: n as u64,
+                checksum: s.written.last().map_or(0.0, |&c| f64::from(c & 0xff)),
+            })
+        })
+        .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
+}
+
+/// `--staged` given a source without stored positions (the flags' check refuses point files
+/// before they are opened).
+fn not_a_store(r: &dyn PointReader) -> anyhow::Error {
+    anyhow!(
+        "{}: --staged reads stores, whose parts go to the GPU as stored; this input is not one",
+        r.path().display()
+    )
 }
 
 fn parse_mode(s: &str) -> Result<ColorMode, String> {

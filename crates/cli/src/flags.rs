@@ -211,6 +211,19 @@ pub fn check(command: &Command, given: &Given) -> Result<(), String> {
             "a .pointlet output",
             "a LAS/LAZ output",
         ),
+        Command::BenchRead(a) => {
+            if a.inputs.iter().any(|p| !crate::load::is_store_path(p)) {
+                given.refuse(&["staged"], "stores", "point files")?;
+            }
+            if a.color_only == Some(pointlet_core::color::ColorMode::Elevation) {
+                given.refuse(
+                    &["staged"],
+                    "colourings made from stored columns",
+                    "--color-only elevation (which needs decoded positions)",
+                )?;
+            }
+            Ok(())
+        }
         Command::Info(a) if crate::load::is_store_path(&a.input) => {
             given.refuse(&READING, "point files", "a store")
         }

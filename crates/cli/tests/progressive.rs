@@ -274,12 +274,33 @@ fn a_store_with_progressive_is_drawn_as_its_point_file_is() {
         "100",
     ]);
     assert!(out.contains("fully loaded after"), "{out}");
-    for extra in [&[][..], &["--color-only", "rgb"][..]] {
+    for extra in [
+        &[][..],
+        &["--color-only", "rgb"][..],
+        &["--staged"][..],
+        &["--staged", "--color-only", "intensity"][..],
+    ] {
         let mut args = vec!["bench-read", s(&store)];
         args.extend_from_slice(extra);
         let out = ok(&args);
         assert!(out.contains("decoded 1065 points"), "{out}");
+        let staged = extra.contains(&"--staged");
+        assert_eq!(out.contains("GB/s of 16-byte points"), staged, "{out}");
     }
+    usage_fails(
+        &["bench-read", s(&las), "--staged"],
+        &["--staged", "stores only"],
+    );
+    usage_fails(
+        &[
+            "bench-read",
+            s(&store),
+            "--staged",
+            "--color-only",
+            "elevation",
+        ],
+        &["--staged", "elevation"],
+    );
     usage_fails(
         &["render", s(&las), "-o", "x.png", "--progressive"],
         &["--progressive", "stores only"],
