@@ -2,24 +2,24 @@
 # Session 50, prepared call: a store's progressive load is CPU-bound (session 49's prepared
 # thread-states call, run in session 50: the pool's threads running in 67-96 % of the samples
 # while loading) and the RGB colour loop had 19.6 % of its CPU samples (a byte gather with a
-# variable place and bounds checks). base = the code before, rgb = that loop with the byte's
-# place a constant and eight points at a time, p16 = rgb with 16 384-point parts instead of
-# 65 536 (a part's buffers in the L2 cache). The 1 G lean store (or as many points as the
+# variable place and bounds checks). base = the code before, simd = that loop four points at
+# a time by byte shuffles (SSSE3), p16 = simd with 16 384-point parts instead of 65 536 (a
+# part's buffers in the L2 cache). The 1 G lean store (or as many points as the
 # second argument says) and the 200 M store, `bench --progressive --realtime --target-fps 60`,
 # alternated, three rounds (or as many as the first argument says); before each, `bench-read
 # --staged` of the same store (the load's CPU side without the bus: the parts read,
 # checksummed, coloured and copied into ordinary memory).
-# Binaries: `cargo build --release -p pointlet` of 9c24b07 (rgb), of it with 7cdb6bd~1's
-# crates/core/src/color.rs (base) and with PART_POINTS = 16_384 in crates/engine/src/
-# store_points.rs (p16), `strip --strip-all`, `xz -9e`, as .dev/pointlet-{base,rgb,p16}.xz; .gl
-# as in the device README.
+# Binaries: `cargo build --release -p pointlet` of 4a22802 (simd), of 9c24b07 with 7cdb6bd~1's
+# crates/core/src/color.rs (base) and of 4a22802 with PART_POINTS = 16_384 in crates/engine/
+# src/store_points.rs (p16), `strip --strip-all`, `xz -9e`, as .dev/pointlet-{base,simd,p16}.xz;
+# .gl as in the device README.
 # Run: run(command="bash docs/bench/issue11/session50/1-h100-colour-loop/call.sh [ROUNDS [LEAN_POINTS]]", carry=[".dev", ".gl"])
 set -uo pipefail
 mkdir -p $OUT/c; exec > >(tee "$OUT/c/log.txt") 2>&1
 for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
 export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 X() { xz -dc "$1" 2>/dev/null || python3 -c 'import lzma,sys,shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"; }
-V="base rgb p16"
+V="base simd p16"
 for v in $V; do X .dev/pointlet-$v.xz > /tmp/p-$v && chmod +x /tmp/p-$v; done
 # The session's first call found /tmp too full for the 1 G store (19 GB): the roomiest place.
 df -h /tmp . /dev/shm | cat
