@@ -476,18 +476,15 @@ pub fn point_colors(batch: &PointBatch, scale: &ColorScale, out: &mut [u32]) {
 pub fn rgb_colors_from_bytes(rgb: &[u8], classes: &[u8], rgb_8bit: bool, out: &mut [u32]) {
     let n = out.len().min(rgb.len() / 6).min(classes.len());
     let (rgb, classes, out) = (&rgb[..n * 6], &classes[..n], &mut out[..n]);
-    let mut done = 0;
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("ssse3") {
+    let done = match std::arch::is_x86_feature_detected!("ssse3") {
         // SAFETY: the CPU has SSSE3; the three slices hold n points each.
-        done = unsafe {
-            if rgb_8bit {
-                rgb_colors_ssse3::<0>(rgb, classes, out)
-            } else {
-                rgb_colors_ssse3::<1>(rgb, classes, out)
-            }
-        };
-    }
+        true if rgb_8bit => unsafe { rgb_colors_ssse3::<0>(rgb, classes, out) },
+        true => unsafe { rgb_colors_ssse3::<1>(rgb, classes, out) },
+        false => 0,
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = 0;
     let (rgb, classes, out) = (&rgb[done * 6..], &classes[done..], &mut out[done..]);
     if rgb_8bit {
         rgb_colors_at::<0>(rgb, classes, out);
