@@ -186,6 +186,12 @@ fn stage_parts(r: &dyn PointReader, parts: &dyn PartedSource, mode: ColorMode) -
             let bytes = parts
                 .read_quantized_positions(i, &mut s.raw)
                 .map_err(|e| anyhow!(e))?;
+            if bytes != n * 12 {
+                return Err(anyhow!(
+                    "{}: part {i} holds {bytes} bytes of positions, its size is {n} points",
+                    r.path().display()
+                ));
+            }
             s.positions.clear();
             s.positions.extend_from_slice(&s.raw[..bytes]);
             s.colors.resize(n, 0);
@@ -202,7 +208,9 @@ fn stage_parts(r: &dyn PointReader, parts: &dyn PartedSource, mode: ColorMode) -
             s.written.extend_from_slice(&s.colors);
             Ok(Tally {
                 points: n as u64,
-                checksum: s.written.last().map_or(0.0, |&c| f64::from(c & 0xff)),
+                // Both copies are read, so neither can be left out.
+                checksum: s.written.last().map_or(0.0, |&c| f64::from(c & 0xff))
+                    + s.positions.last().map_or(0.0, |&b| f64::from(b)),
             })
         })
         .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
