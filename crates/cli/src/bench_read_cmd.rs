@@ -8,8 +8,9 @@
 //! CPU side without the bus.
 
 use anyhow::{anyhow, Result};
-use pointlet_core::color::{point_colors, ColorMode, ColorScale};
+use pointlet_core::color::{ColorMode, ColorScale};
 use pointlet_core::{PartedSource, PointBatch};
+use pointlet_engine::progressive::{read_stored_part, PartScratch};
 use pointlet_io::PointReader;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -150,21 +151,8 @@ fn decode_parts(
         .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
 }
 
-/// What one thread keeps from part to part of [`stage_parts`].
-#[derive(Default)]
-struct Staging {
-    raw: Vec<u8>,
-    classes: Vec<u8>,
-    batch: PointBatch,
-    /// Stand-ins for upload memory (cached, unlike a GPU's BAR).
-    positions: Vec<u8>,
-    colors: Vec<u32>,
-    written: Vec<u32>,
-}
-
-/// Every part read as a progressive load reads a store's (`stored_part` in the engine): its
-/// positions as stored, its colours under `mode` from the stored streams (or its attributes
-/// decoded and coloured where the mode needs more), both copied out.
+/// Every part read as a progressive load reads a store's ([`read_stored_part`]), its
+/// positions and colours copied into ordinary memory instead of upload memory.
 fn stage_parts(r: &dyn PointReader, parts: &dyn PartedSource, mode: ColorMode) -> Result<Tally> {
     if parts.quantized_positions().is_none() {
         return Err(not_a_store(r));
@@ -181,38 +169,26 @@ fn stage_parts(r: &dyn PointReader, parts: &dyn PartedSource, mode: ColorMode) -
     let scale = ColorScale::fit(mode, &[&sample], [b.min[2], b.max[2]]);
     (0..sizes.len())
         .into_par_iter()
-        .map_init(Staging::default, |s, i| {
-            let n = sizes[i] as usize;
-            let bytes = parts
-                .read_quantized_positions(i, &mut s.raw)
-                .map_err(|e| anyhow!(e))?;
-            if bytes != n * 12 {
-                return Err(anyhow!(
-                    "{}: part {i} holds {bytes} bytes of positions, its size is {n} points",
-                    r.path().display()
-                ));
-            }
-            s.positions.clear();
-            s.positions.extend_from_slice(&s.raw[..bytes]);
-            s.colors.resize(n, 0);
-            let direct = parts
-                .stored_colors(i, &scale, &mut s.colors, &mut s.raw, &mut s.classes)
-                .map_err(|e| anyhow!(e))?;
-            if !direct {
-                parts
-                    .decode_attributes_for(i, &mut s.batch, &mut s.raw, mode)
+        .map_init(
+            || (PartScratch::default(), Vec::new(), Vec::new()),
+            |(scratch, positions, colors), i| {
+                let copy_positions = |bytes: &[u8]| {
+                    positions.clear();
+                    positions.extend_from_slice(bytes);
+                    Ok(())
+                };
+                let made = read_stored_part(parts, r.path(), &scale, i, scratch, copy_positions)
                     .map_err(|e| anyhow!(e))?;
-                point_colors(&s.batch, &scale, &mut s.colors);
-            }
-            s.written.clear();
-            s.written.extend_from_slice(&s.colors);
-            Ok(Tally {
-                points: n as u64,
-                // Both copies are read, so neither can be left out.
-                checksum: s.written.last().map_or(0.0, |&c| f64::from(c & 0xff))
-                    + s.positions.last().map_or(0.0, |&b| f64::from(b)),
-            })
-        })
+                colors.clear();
+                colors.extend_from_slice(made);
+                Ok(Tally {
+                    points: sizes[i],
+                    // Both copies are read, so neither can be left out.
+                    checksum: colors.last().map_or(0.0, |&c| f64::from(c & 0xff))
+                        + positions.last().map_or(0.0, |&b| f64::from(b)),
+                })
+            },
+        )
         .try_reduce(Tally::default, |a, b| Ok(a.add(b)))
 }
 

@@ -1011,7 +1011,7 @@ fn encode_part(
 
 /// What decoding one part needs besides its share: reused from part to part.
 #[derive(Default)]
-struct PartScratch {
+pub struct PartScratch {
     batch: PointBatch,
     bytes: Vec<u8>,
     positions: Vec<u32>,
@@ -1048,6 +1048,23 @@ fn stored_part(
     mut p: StagedRegion<'_>,
     mut c: StagedRegion<'_>,
 ) -> Result<(), String> {
+    let write_positions = |bytes: &[u8]| p.write(bytes).map_err(|e| e.to_string());
+    let colors = read_stored_part(parts, &job.path, &color.scale, i, scratch, write_positions)?;
+    c.write(colors).map_err(|e| e.to_string())
+}
+
+/// Part `i` of a store as a load sends it to the GPU: its positions as stored (12 bytes a
+/// point, checksummed) handed to `positions`, then its colours under `scale` made from the
+/// streams they need (or from its attributes decoded, where `scale` needs more), returned.
+/// `bench-read --staged` measures loads through it.
+pub fn read_stored_part<'s>(
+    parts: &dyn PartedSource,
+    path: &Path,
+    scale: &ColorScale,
+    i: usize,
+    scratch: &'s mut PartScratch,
+    positions: impl FnOnce(&[u8]) -> Result<(), String>,
+) -> Result<&'s [u32], String> {
     let PartScratch {
         batch,
         bytes: raw,
@@ -1062,21 +1079,21 @@ fn stored_part(
     if bytes as u64 != size * 12 {
         return Err(format!(
             "{}: part {i} holds {bytes} bytes of positions, its size is {size} points",
-            job.path.display(),
+            path.display(),
         ));
     }
-    p.write(&raw[..bytes]).map_err(|e| e.to_string())?;
+    positions(&raw[..bytes])?;
     c_words.resize(size as usize, 0u32);
     let direct = parts
-        .stored_colors(i, &color.scale, c_words, raw, classes)
+        .stored_colors(i, scale, c_words, raw, classes)
         .map_err(|e| e.to_string())?;
     if !direct {
         parts
-            .decode_attributes_for(i, batch, raw, color.scale.mode)
+            .decode_attributes_for(i, batch, raw, scale.mode)
             .map_err(|e| e.to_string())?;
-        point_colors(batch, &color.scale, c_words);
+        point_colors(batch, scale, c_words);
     }
-    c.write(c_words).map_err(|e| e.to_string())
+    Ok(c_words)
 }
 
 /// One part's share of a batch's encoded points.
