@@ -591,14 +591,14 @@ impl StoreBuilder {
             pio::huge_pages(&self.run.pairs);
             self.run_untouched = true;
         }
-        let moved = Self::grow(&mut self.run.pairs, n0 + add, expected, cap)
-            | Self::grow(
-                &mut self.run.records,
-                (n0 + add) * rb,
-                expected.saturating_mul(rb),
-                cap * rb,
-            );
-        if moved {
+        let pairs_moved = Self::grow(&mut self.run.pairs, n0 + add, expected, cap);
+        let records_moved = Self::grow(
+            &mut self.run.records,
+            (n0 + add) * rb,
+            expected.saturating_mul(rb),
+            cap * rb,
+        );
+        if pairs_moved || records_moved {
             self.run_untouched = false;
         }
     }
