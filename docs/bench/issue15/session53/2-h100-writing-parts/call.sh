@@ -4,10 +4,12 @@
 # experiment switches (`switches.diff`; POINTLET_X=nosort: buckets left unsorted; seq: each
 # pointlet's records taken in run order, no scattered gather; nomap: streams computed into
 # reused buffers, nothing written to the mapping): stores are wrong with any switch, the stage
-# times are what count. 200 M LAS in memory, every combination, two rounds alternated. Then
+# times are what count. 200 M LAS in memory, each switch and all three, two rounds alternated. Then
 # one out-of-core build with /proc/vmstat's dirty and writeback pages sampled every 0.5 s
 # (call 1's out of core took 7.4-7.9 s on its host, the CPU 36 % busy).
-# Binary: .dev15/pointlet-x.xz (`cargo build --release -p pointlet`, `strip --strip-all`, `xz -9e`).
+# Binary: .dev15/pointlet-x.xz (daf3e84 with `git apply switches.diff`, `cargo build --release -p
+# pointlet`, `strip --strip-all`, `xz -9e`; estimated ~2 min on one host). Prepared in session 53, not run:
+# no machine could be started after call 1.
 # Run: run(command="bash docs/bench/issue15/session53/2-h100-writing-parts/call.sh", carry=[".dev", ".dev15"])
 set -uo pipefail
 mkdir -p $OUT/t; exec > >(tee "$OUT/t/log.txt") 2>&1
@@ -24,7 +26,7 @@ timeout 100 /tmp/x generate --points 200M -o $W/g.las 2>&1 | tail -1
 sync; cat $W/g.las > /dev/null
 POINTLET_X= conv warm-up 24GiB
 for r in 1 2; do
-  for v in none nosort seq nomap nosort,seq nosort,nomap seq,nomap nosort,seq,nomap; do
+  for v in none nosort seq nomap nosort,seq,nomap; do
     POINTLET_X=$v conv "$v r$r" 24GiB
   done
 done
