@@ -3,10 +3,13 @@
 # sorts' work away (dev) and the writing stage did not shorten. A build of daf3e84 with
 # experiment switches (`switches.diff`; POINTLET_X=nosort: buckets left unsorted; seq: each
 # pointlet's records taken in run order, no scattered gather; nomap: streams computed into
-# reused buffers, nothing written to the mapping): stores are wrong with any switch, the stage
+# reused buffers, nothing written to the mapping; nopunch: spilled runs' pages left in place
+# when read): stores are wrong with the first three, the stage
 # times are what count. 200 M LAS in memory, each switch and all three, two rounds alternated. Then
-# one out-of-core build with /proc/vmstat's dirty and writeback pages sampled every 0.5 s
-# (call 1's out of core took 7.4-7.9 s on its host, the CPU 36 % busy).
+# two out-of-core builds (the runs' pages punched out as they are read, as built, and with
+# POINTLET_X=nopunch not) with /proc/vmstat's dirty and writeback pages and the threads' kernel
+# wait channels sampled (call 1's out of core took 7.4-7.9 s on its host, the CPU 36 % busy:
+# does a hole punch wait on the runs' writeback?).
 # Binary: .dev15/pointlet-x.xz (daf3e84 with `git apply switches.diff`, `cargo build --release -p
 # pointlet`, `strip --strip-all`, `xz -9e`; estimated ~2 min on one host). Prepared in session 53, not run:
 # no machine could be started after call 1.
@@ -31,10 +34,18 @@ for r in 1 2; do
   done
 done
 echo "at $SECONDS s"
-( for i in $(seq 1 40); do echo "t=$i/2 $(grep -E '^nr_(dirty|writeback|dirty_threshold|dirty_background_threshold) ' /proc/vmstat | tr '\n' ' ')"; sleep 0.5; done ) &
-S=$!
-POINTLET_X= conv "out of core" 1GiB
-kill $S 2>/dev/null; wait
+# Out of core twice (runs' pages punched out as read, as built; and not): dirty and writeback
+# pages every 0.5 s, and what the build's threads wait in (their kernel wait channel) every
+# 0.1 s, counted.
+for v in none nopunch; do
+  ( for i in $(seq 1 40); do echo "t=$i/2 $(grep -E '^nr_(dirty|writeback|dirty_threshold|dirty_background_threshold) ' /proc/vmstat | tr '\n' ' ')"; sleep 0.5; done ) > /tmp/vm-$v.txt &
+  S=$!
+  ( sleep 0.3; P=$(pgrep -f '^/tmp/x convert' | head -1); for i in $(seq 1 150); do grep -h . /proc/$P/task/*/wchan 2>/dev/null; sleep 0.1; done ) > /tmp/wchan-$v.txt &
+  C=$!
+  POINTLET_X=$v conv "out of core, $v" 1GiB
+  kill $S $C 2>/dev/null; wait
+  cat /tmp/vm-$v.txt; echo "wait channels ($v), samples of all threads:"; grep -v '^$' /tmp/wchan-$v.txt | sort | uniq -c | sort -rn | head -15
+done
 POINTLET_X= conv "in memory" 24GiB
 echo "at $SECONDS s"
 rm -rf $W
