@@ -310,7 +310,7 @@ fn bucket_slices<'a>(
     slices
 }
 
-/// Up to this many pairs a sort's packed keys sit on the stack.
+/// Up to this many pairs whose keys do not pack, a comparison sort finishes a bucket.
 const LEAF: usize = 256;
 /// Above this many pairs a bucket is split by a parallel pass: points on a surface fill few of
 /// the top cells, and a dataset with a far outlier puts almost every point in one bucket.
@@ -325,8 +325,8 @@ const PARALLEL: usize = 1 << 15;
 /// below the sample's resolution.
 fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     let n = s.len();
-    if n <= LEAF {
-        return sort_leaf(s);
+    if n < 2 {
+        return;
     }
     if n > LARGE {
         let Some(RadixPass { count, shift, base }) = radix_pass(s) else {
@@ -356,6 +356,10 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
             });
         }
     }
+    if n <= LEAF {
+        // Pairs are unique, so the unstable sort of (key, index) gives the one order.
+        return s.sort_unstable();
+    }
     let bits = varying.min((n / 64).ilog2().clamp(1, 11));
     let shift = varying - bits;
     let base = min >> shift;
@@ -380,26 +384,6 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     }
     for w in starts.windows(2) {
         sort_bucket(&mut s[w[0]..w[1]], &mut tmp[w[0]..w[1]]);
-    }
-}
-
-/// Sorts at most [`LEAF`] pairs, on the stack.
-fn sort_leaf(s: &mut [Pair]) {
-    if s.len() < 2 {
-        return;
-    }
-    let (min, max) = s
-        .iter()
-        .fold((u64::MAX, 0), |(lo, hi), p| (lo.min(p.0), hi.max(p.0)));
-    match packing(s.len(), max - min) {
-        Some(place_bits) if s.len() <= LEAF => {
-            let mut packed = [0u64; LEAF];
-            let mut copy = [Pair::default(); LEAF];
-            let n = s.len();
-            sort_packed(s, &mut copy[..n], &mut packed[..n], min, place_bits);
-        }
-        // Pairs are unique, so the unstable sort of (key, index) gives the one order.
-        _ => s.sort_unstable(),
     }
 }
 
