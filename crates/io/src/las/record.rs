@@ -146,14 +146,51 @@ impl Decoder {
                 row.len
             ));
         }
-        let blocks = raw[..n * self.record_len].chunks(BLOCK * self.record_len);
-        for (block, rows) in blocks.zip(rows.chunks_mut(BLOCK * row.len)) {
-            let recs = block.chunks_exact(self.record_len);
-            row.put(rows, rows::POSITION, recs.map(|r| arr::<12>(r, 0)));
-            self.decode_attributes(block, &mut Rows { row, rows });
-            row.zero_absent(&self.layout(), rows);
+        let recs = raw.chunks_exact(self.record_len);
+        if self.format.extended {
+            for (r, o) in recs.zip(rows.chunks_exact_mut(row.len)) {
+                self.record_to_row::<true>(r, row, o);
+            }
+        } else {
+            for (r, o) in recs.zip(rows.chunks_exact_mut(row.len)) {
+                self.record_to_row::<false>(r, row, o);
+            }
         }
+        row.zero_absent(&self.layout(), rows);
         Ok(())
+    }
+
+    /// One record into one row, field by field (`E`: an extended format).
+    #[inline(always)]
+    fn record_to_row<const E: bool>(&self, r: &[u8], row: &RowLayout, o: &mut [u8]) {
+        // Position and intensity are the same bytes in records and rows.
+        o[..14].copy_from_slice(&r[..14]);
+        let x = Fixed::of::<E>(r);
+        o[rows::RETURNS] = x.returns;
+        o[rows::FLAGS] = x.flags;
+        o[rows::CLASSIFICATION] = x.classification;
+        o[rows::SCAN_ANGLE..rows::SCAN_ANGLE + 4].copy_from_slice(&x.scan_angle.to_le_bytes());
+        o[rows::USER_DATA] = x.user_data;
+        o[rows::POINT_SOURCE_ID..rows::POINT_SOURCE_ID + 2]
+            .copy_from_slice(&x.point_source_id.to_le_bytes());
+        let f = &self.format;
+        if let (Some(from), Some(to)) = (f.gps_time, row.gps_time) {
+            o[to..to + 8].copy_from_slice(&r[from..from + 8]);
+        }
+        if let (Some(from), Some(to)) = (f.rgb, row.rgb) {
+            o[to..to + 6].copy_from_slice(&r[from..from + 6]);
+        }
+        if let (Some(from), Some(to)) = (f.nir, row.nir) {
+            o[to..to + 2].copy_from_slice(&r[from..from + 2]);
+        }
+        if let (Some(from), Some(to)) = (f.waveform, row.waveform) {
+            o[to..to + WAVEFORM_BYTES].copy_from_slice(&r[from..from + WAVEFORM_BYTES]);
+        }
+        if let Some((to, width)) = row.extra {
+            let have = self.extra.min(width);
+            o[to..to + have].copy_from_slice(&r[f.size..f.size + have]);
+            o[to + have..to + width].fill(0);
+        }
     }
 
     /// Whether [`Self::decode_rows`] can fill rows of `row` for a store quantized as `q`: the
@@ -178,173 +215,98 @@ impl Decoder {
     }
 
     /// Every column but the positions, into `out`.
-    fn decode_attributes(&self, block: &[u8], out: &mut impl Columns) {
-        let recs = || block.chunks_exact(self.record_len);
-        out.intensity(recs().map(|r| u16_at(r, 12)));
+    fn decode_attributes(&self, block: &[u8], out: &mut PointBatch) {
         if self.format.extended {
-            out.returns(recs().map(|r| byte(r, 14)));
-            out.flags(recs().map(|r| {
-                let b = byte(r, 15);
-                (b & 0x0F)
-                    | ((b >> 6) & 1) << 4
-                    | ((b >> 7) & 1) << 5
-                    | ((b >> 4) & 3) << flags::CHANNEL_SHIFT
-            }));
-            out.classification(recs().map(|r| byte(r, 16)));
-            out.user_data(recs().map(|r| byte(r, 17)));
-            out.scan_angle(
-                recs().map(|r| f32::from(i16::from_le_bytes(arr(r, 18))) * SCAN_ANGLE_STEP),
-            );
-            out.point_source_id(recs().map(|r| u16_at(r, 20)));
+            self.decode_fixed::<true>(block, out);
         } else {
-            out.returns(recs().map(|r| {
-                let b = byte(r, 14);
-                (b & 7) | ((b >> 3) & 7) << 4
-            }));
-            out.flags(recs().map(|r| {
-                let (b, c) = (byte(r, 14), byte(r, 15));
-                let overlap = u8::from(c & 0x1F == LEGACY_OVERLAP);
-                ((c >> 5) & 7) | overlap << 3 | ((b >> 6) & 1) << 4 | ((b >> 7) & 1) << 5
-            }));
-            out.classification(recs().map(|r| match byte(r, 15) & 0x1F {
-                LEGACY_OVERLAP => 1,
-                c => c,
-            }));
-            out.scan_angle(recs().map(|r| f32::from(byte(r, 16) as i8)));
-            out.user_data(recs().map(|r| byte(r, 17)));
-            out.point_source_id(recs().map(|r| u16_at(r, 18)));
+            self.decode_fixed::<false>(block, out);
         }
+        let recs = || block.chunks_exact(self.record_len);
         if let Some(at) = self.format.gps_time {
-            out.gps_time(recs().map(|r| f64::from_le_bytes(arr(r, at))));
+            out.gps_time
+                .extend(recs().map(|r| f64::from_le_bytes(arr(r, at))));
         }
         if let Some(at) = self.format.rgb {
-            out.rgb(recs().map(|r| [u16_at(r, at), u16_at(r, at + 2), u16_at(r, at + 4)]));
+            out.rgb
+                .extend(recs().map(|r| [u16_at(r, at), u16_at(r, at + 2), u16_at(r, at + 4)]));
         }
         if let Some(at) = self.format.nir {
-            out.nir(recs().map(|r| u16_at(r, at)));
+            out.nir.extend(recs().map(|r| u16_at(r, at)));
         }
         if let Some(at) = self.format.waveform {
-            out.waveform(recs().map(|r| arr::<WAVEFORM_BYTES>(r, at)));
+            out.waveform
+                .extend(recs().map(|r| arr::<WAVEFORM_BYTES>(r, at)));
         }
         if self.extra > 0 {
             let (from, to) = (self.format.size, self.format.size + self.extra);
-            out.extra_bytes(recs().map(|r| r.get(from..to).unwrap_or_default()));
+            for r in recs() {
+                out.extra_bytes
+                    .extend_from_slice(r.get(from..to).unwrap_or_default());
+            }
         }
     }
+
+    /// Intensity and the fixed fields after it, column by column: tight loops, each keeping
+    /// one field of [`Fixed`] (the rest is not computed).
+    fn decode_fixed<const E: bool>(&self, block: &[u8], out: &mut PointBatch) {
+        let recs = || block.chunks_exact(self.record_len);
+        out.intensity.extend(recs().map(|r| u16_at(r, 12)));
+        out.returns
+            .extend(recs().map(|r| Fixed::of::<E>(r).returns));
+        out.flags.extend(recs().map(|r| Fixed::of::<E>(r).flags));
+        out.classification
+            .extend(recs().map(|r| Fixed::of::<E>(r).classification));
+        out.scan_angle
+            .extend(recs().map(|r| Fixed::of::<E>(r).scan_angle));
+        out.user_data
+            .extend(recs().map(|r| Fixed::of::<E>(r).user_data));
+        out.point_source_id
+            .extend(recs().map(|r| Fixed::of::<E>(r).point_source_id));
+    }
 }
 
-/// Where [`Decoder`] puts the values of each column but the positions: batch columns, or the
-/// rows of a store being built.
-trait Columns {
-    fn intensity(&mut self, v: impl Iterator<Item = u16>);
-    fn returns(&mut self, v: impl Iterator<Item = u8>);
-    fn flags(&mut self, v: impl Iterator<Item = u8>);
-    fn classification(&mut self, v: impl Iterator<Item = u8>);
-    fn scan_angle(&mut self, v: impl Iterator<Item = f32>);
-    fn user_data(&mut self, v: impl Iterator<Item = u8>);
-    fn point_source_id(&mut self, v: impl Iterator<Item = u16>);
-    fn gps_time(&mut self, v: impl Iterator<Item = f64>);
-    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>);
-    fn nir(&mut self, v: impl Iterator<Item = u16>);
-    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>);
-    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>);
+/// A record's fields between intensity and the optional ones, as batches and rows hold them.
+struct Fixed {
+    returns: u8,
+    flags: u8,
+    classification: u8,
+    /// Degrees.
+    scan_angle: f32,
+    user_data: u8,
+    point_source_id: u16,
 }
 
-impl Columns for PointBatch {
-    fn intensity(&mut self, v: impl Iterator<Item = u16>) {
-        self.intensity.extend(v);
-    }
-    fn returns(&mut self, v: impl Iterator<Item = u8>) {
-        self.returns.extend(v);
-    }
-    fn flags(&mut self, v: impl Iterator<Item = u8>) {
-        self.flags.extend(v);
-    }
-    fn classification(&mut self, v: impl Iterator<Item = u8>) {
-        self.classification.extend(v);
-    }
-    fn scan_angle(&mut self, v: impl Iterator<Item = f32>) {
-        self.scan_angle.extend(v);
-    }
-    fn user_data(&mut self, v: impl Iterator<Item = u8>) {
-        self.user_data.extend(v);
-    }
-    fn point_source_id(&mut self, v: impl Iterator<Item = u16>) {
-        self.point_source_id.extend(v);
-    }
-    fn gps_time(&mut self, v: impl Iterator<Item = f64>) {
-        self.gps_time.extend(v);
-    }
-    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>) {
-        self.rgb.extend(v);
-    }
-    fn nir(&mut self, v: impl Iterator<Item = u16>) {
-        self.nir.extend(v);
-    }
-    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>) {
-        self.waveform.extend(v);
-    }
-    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>) {
-        for bytes in v {
-            self.extra_bytes.extend_from_slice(bytes);
+impl Fixed {
+    /// The fields of record `r` of a legacy (`E` false) or extended format.
+    #[inline(always)]
+    fn of<const E: bool>(r: &[u8]) -> Fixed {
+        let (b, c) = (byte(r, 14), byte(r, 15));
+        if E {
+            Fixed {
+                returns: b,
+                flags: (c & 0x0F)
+                    | ((c >> 6) & 1) << 4
+                    | ((c >> 7) & 1) << 5
+                    | ((c >> 4) & 3) << flags::CHANNEL_SHIFT,
+                classification: byte(r, 16),
+                scan_angle: f32::from(i16::from_le_bytes(arr(r, 18))) * SCAN_ANGLE_STEP,
+                user_data: byte(r, 17),
+                point_source_id: u16_at(r, 20),
+            }
+        } else {
+            let overlap = u8::from(c & 0x1F == LEGACY_OVERLAP);
+            Fixed {
+                returns: (b & 7) | ((b >> 3) & 7) << 4,
+                flags: ((c >> 5) & 7) | overlap << 3 | ((b >> 6) & 1) << 4 | ((b >> 7) & 1) << 5,
+                classification: match c & 0x1F {
+                    LEGACY_OVERLAP => 1,
+                    c => c,
+                },
+                scan_angle: f32::from(byte(r, 16) as i8),
+                user_data: byte(r, 17),
+                point_source_id: u16_at(r, 18),
+            }
         }
-    }
-}
-
-/// Consecutive rows of a [`RowLayout`] that has every column the records have.
-struct Rows<'a> {
-    row: &'a RowLayout,
-    rows: &'a mut [u8],
-}
-
-impl Rows<'_> {
-    fn optional<const W: usize>(&mut self, at: Option<usize>, v: impl Iterator<Item = [u8; W]>) {
-        if let Some(at) = at {
-            self.row.put(self.rows, at, v);
-        }
-    }
-}
-
-impl Columns for Rows<'_> {
-    fn intensity(&mut self, v: impl Iterator<Item = u16>) {
-        self.row
-            .put(self.rows, rows::INTENSITY, v.map(u16::to_le_bytes));
-    }
-    fn returns(&mut self, v: impl Iterator<Item = u8>) {
-        self.row.put(self.rows, rows::RETURNS, v.map(|b| [b]));
-    }
-    fn flags(&mut self, v: impl Iterator<Item = u8>) {
-        self.row.put(self.rows, rows::FLAGS, v.map(|b| [b]));
-    }
-    fn classification(&mut self, v: impl Iterator<Item = u8>) {
-        self.row
-            .put(self.rows, rows::CLASSIFICATION, v.map(|b| [b]));
-    }
-    fn scan_angle(&mut self, v: impl Iterator<Item = f32>) {
-        self.row
-            .put(self.rows, rows::SCAN_ANGLE, v.map(f32::to_le_bytes));
-    }
-    fn user_data(&mut self, v: impl Iterator<Item = u8>) {
-        self.row.put(self.rows, rows::USER_DATA, v.map(|b| [b]));
-    }
-    fn point_source_id(&mut self, v: impl Iterator<Item = u16>) {
-        self.row
-            .put(self.rows, rows::POINT_SOURCE_ID, v.map(u16::to_le_bytes));
-    }
-    fn gps_time(&mut self, v: impl Iterator<Item = f64>) {
-        self.optional(self.row.gps_time, v.map(f64::to_le_bytes));
-    }
-    fn rgb(&mut self, v: impl Iterator<Item = [u16; 3]>) {
-        self.optional(self.row.rgb, v.map(|c| rows::rgb_bytes(&c)));
-    }
-    fn nir(&mut self, v: impl Iterator<Item = u16>) {
-        self.optional(self.row.nir, v.map(u16::to_le_bytes));
-    }
-    fn waveform(&mut self, v: impl Iterator<Item = [u8; WAVEFORM_BYTES]>) {
-        self.optional(self.row.waveform, v);
-    }
-    fn extra_bytes<'r>(&mut self, v: impl Iterator<Item = &'r [u8]>) {
-        self.row.put_extra(self.rows, v);
     }
 }
 
