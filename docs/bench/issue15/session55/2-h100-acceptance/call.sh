@@ -6,7 +6,8 @@
 # Carry `.dev55`: pointlet-z.xz (`cargo build --release -p pointlet`, `strip --strip-all`,
 # `xz -9e`), PotreeConverter's folder (../shared/tools/potree-converter), the Debian `time`
 # package's .deb (`apt-get download time`).
-# Run: run(command="bash docs/bench/issue15/session55/2-h100-acceptance/call.sh", carry=[".dev55"])
+# Run: run(command="bash docs/bench/issue15/session55/2-h100-acceptance/call.sh", carry=[".dev55"]);
+# N=2M OUT=DIR bash …/call.sh is a dry run on dev.
 set -uo pipefail
 mkdir -p $OUT/cb; exec > >(tee "$OUT/log.txt") 2>&1
 xz -dc .dev55/pointlet-z.xz > /tmp/pointlet && chmod +x /tmp/pointlet
@@ -14,10 +15,10 @@ xz -dc .dev55/pointlet-z.xz > /tmp/pointlet && chmod +x /tmp/pointlet
 W=$(for d in /tmp $PWD/..; do echo "$(df --output=avail -k $d | tail -1) $d"; done | sort -n | tail -1 | cut -d' ' -f2)/w55
 mkdir -p $W; SECONDS=0
 uname -r; lscpu | grep -E 'Thread|Core|Socket'
-POINTLET=/tmp/pointlet POINTS=200M ROUNDS=2 POTREE_ROUNDS=1 POTREE=.dev55/potree-converter/run.sh \
+POINTLET=/tmp/pointlet POINTS=${N:-200M} ROUNDS=2 POTREE_ROUNDS=1 POTREE=.dev55/potree-converter/run.sh \
   timeout 420 bash scripts/convert-bench.sh $OUT/cb $W
 echo "at $SECONDS s"
-Z=$W/gen-200M.laz; cat $Z > /dev/null
+Z=$W/gen-${N:-200M}.laz; cat $Z > /dev/null
 for r in 2 3; do
   timeout 60 /tmp/pointlet bench-read $Z 2>&1 | tail -1
   /usr/bin/time -f "cpu %U user %S sys %e wall %M kB" timeout 60 /tmp/pointlet convert $Z -o $W/z.pointlet --ram-budget 24GiB 2>&1 | grep -E '^wrote|^cpu' | tr '\n' ' ' | sed "s|$W/||g; s|^|LAZ r$r: |"; echo
