@@ -3,8 +3,9 @@
 # "rows" build of call 1: 7f94f7b + rows.diff = 9d2df54's code), PotreeConverter in the same
 # run: scripts/convert-bench.sh on 200 M generated points (LAS and LAZ), two rounds, one of
 # PotreeConverter; then two more rounds of LAZ bench-read and convert, alternated.
-# Carry `.dev55`: pointlet-z.xz (`cargo build --release -p pointlet`, `strip --strip-all`,
-# `xz -9e`), PotreeConverter's folder (../shared/tools/potree-converter), the Debian `time`
+# Carry `.dev55`: pointlet-z.xz (call 1's z: 9d2df54 + session 53's switches.diff, whose
+# switches are off unless POINTLET_X names one; `cargo build --release -p pointlet`,
+# `strip --strip-all`, `xz -9e`), PotreeConverter's folder (../shared/tools/potree-converter), the Debian `time`
 # package's .deb (`apt-get download time`).
 # Run: run(command="bash docs/bench/issue15/session55/2-h100-acceptance/call.sh", carry=[".dev55"]);
 # N=2M OUT=DIR bash …/call.sh is a dry run on dev.
