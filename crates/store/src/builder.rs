@@ -904,6 +904,7 @@ impl StoreBuilder {
                     }
                     sorted = next;
                 }
+                sort::release_second_arrays();
                 Ok(())
             })?
         };

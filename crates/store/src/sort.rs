@@ -263,8 +263,11 @@ pub(crate) fn sort_buckets(pairs: &mut [Pair], buckets: &Buckets, range: std::op
     sort_buckets_at(pairs, 0, buckets, range);
 }
 
-/// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array. Each task
-/// keeps one second array for the buckets it sorts, as long as the longest of them.
+/// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array. Every
+/// bucket of two pairs or more is a task of its own: rayon's default split handed one thread
+/// a run of hundreds of large buckets (a stretch of 25 K buckets, most of them empty) whose
+/// sequential splits it worked through for 40 ms while the other cores waited (GPU machine,
+/// 200 M points, docs/BENCHMARKS.md, session 57).
 pub(crate) fn sort_buckets_at(
     pairs: &mut [Pair],
     base: usize,
@@ -275,23 +278,64 @@ pub(crate) fn sort_buckets_at(
         return;
     }
     let (lo, hi) = (buckets.starts[range.start], buckets.starts[range.end]);
-    bucket_slices(&mut pairs[lo - base..hi - base], buckets, range)
+    let mut tasks = bucket_slices(&mut pairs[lo - base..hi - base], buckets, range);
+    tasks.retain(|s| s.len() > 1);
+    tasks
         .into_par_iter()
-        .for_each_init(Vec::new, |tmp, s| {
-            if tmp.len() < s.len() {
-                tmp.resize(s.len(), Pair::default());
-            }
-            sort_bucket(s, &mut tmp[..s.len()]);
-        });
+        .with_max_len(1)
+        .for_each(|s| with_second(s.len(), |tmp| sort_bucket(s, tmp)));
+}
+
+thread_local! {
+    /// Each thread's second array for the buckets it sorts, out of the cell while in use (a
+    /// nested parallel sort may start another bucket on the same thread meanwhile). A fresh
+    /// one per task was megabytes of new pages to fault in and unmap again, every bucket.
+    static SECOND: std::cell::Cell<Vec<Pair>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Pairs a thread's kept second array holds at most (3 MiB).
+const SECOND_MAX: usize = 1 << 18;
+
+/// Runs `f` with `n` pairs of this thread's second array; above [`SECOND_MAX`] pairs with an
+/// array of its own, so that no thread keeps more than a few megabytes.
+fn with_second<R>(n: usize, f: impl FnOnce(&mut [Pair]) -> R) -> R {
+    if n > SECOND_MAX {
+        return f(&mut vec![Pair::default(); n]);
+    }
+    let mut tmp = SECOND.take();
+    if tmp.len() < n {
+        tmp.resize(n, Pair::default());
+    }
+    let r = f(&mut tmp[..n]);
+    let other = SECOND.take();
+    SECOND.set(if other.len() > tmp.len() { other } else { tmp });
+    r
+}
+
+/// Frees the second arrays of every thread of the pool (at most [`SECOND_MAX`] pairs each).
+pub(crate) fn release_second_arrays() {
+    rayon::broadcast(|_| drop(SECOND.take()));
 }
 
 /// [`sort_buckets`] of every bucket, with `tmp` (as long as `pairs`) as the second array.
 pub(crate) fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Buckets) {
     let all = 0..buckets.len();
-    bucket_slices(pairs, buckets, all.clone())
-        .into_par_iter()
+    // A group's or a large bucket's buckets hold from none to many thousands of pairs: the
+    // larger ones are each a task of their own, as in `sort_buckets_at`.
+    let (large, small): (Vec<_>, Vec<_>) = bucket_slices(pairs, buckets, all.clone())
+        .into_iter()
         .zip(bucket_slices(tmp, buckets, all))
-        .for_each(|(s, t)| sort_bucket(s, t));
+        .filter(|(s, _)| s.len() > 1)
+        .partition(|(s, _)| s.len() > PARALLEL / 8);
+    rayon::join(
+        || {
+            large
+                .into_par_iter()
+                .with_max_len(1)
+                .for_each(|(s, t)| sort_bucket(s, t))
+        },
+        || small.into_par_iter().for_each(|(s, t)| sort_bucket(s, t)),
+    );
 }
 
 /// `pairs` (buckets `range` of a bucketed array, nothing else) cut at the bucket boundaries.
