@@ -112,8 +112,8 @@ pub(crate) fn copy_records<T>(
 }
 
 /// Copies one record (`dst` and `src` as long) as 16-byte pieces, the last one overlapping the
-/// one before: a record's length is known only at run time, and a `memcpy` call for each of
-/// its few dozen bytes took ~6 % of the writing stage (GPU machine, session 57 profile).
+/// one before: a record's length is known only at run time, and a `memcpy` call for each few
+/// dozen bytes is mostly the call.
 #[inline(always)]
 fn copy_record(dst: &mut [u8], src: &[u8]) {
     const W: usize = 16;

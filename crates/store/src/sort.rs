@@ -264,10 +264,10 @@ pub(crate) fn sort_buckets(pairs: &mut [Pair], buckets: &Buckets, range: std::op
 }
 
 /// [`sort_buckets`] where `pairs` starts at position `base` of the bucketed array. Every
-/// bucket of two pairs or more is a task of its own: rayon's default split handed one thread
-/// a run of hundreds of large buckets (a stretch of 25 K buckets, most of them empty) whose
-/// sequential splits it worked through for 40 ms while the other cores waited (GPU machine,
-/// 200 M points, docs/BENCHMARKS.md, session 57).
+/// bucket of two pairs or more is a task of its own: with rayon's default split one thread
+/// worked through the sequential splits of a run of large buckets for 40 ms while the other
+/// cores waited (a stretch of 25 K buckets, most of them empty; GPU machine, 200 M points,
+/// docs/BENCHMARKS.md, session 57).
 pub(crate) fn sort_buckets_at(
     pairs: &mut [Pair],
     base: usize,
@@ -288,8 +288,8 @@ pub(crate) fn sort_buckets_at(
 
 thread_local! {
     /// Each thread's second array for the buckets it sorts, out of the cell while in use (a
-    /// nested parallel sort may start another bucket on the same thread meanwhile). A fresh
-    /// one per task was megabytes of new pages to fault in and unmap again, every bucket.
+    /// nested parallel sort may start another bucket on the same thread meanwhile). A task's
+    /// own would be megabytes of new pages to fault in and unmap again for every bucket.
     static SECOND: std::cell::Cell<Vec<Pair>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
