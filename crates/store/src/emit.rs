@@ -107,35 +107,7 @@ pub(crate) fn copy_records<T>(
             prefetch(records, a + rb - 1);
         }
         let at = index(item) as usize * rb;
-        copy_record(o, &records[at..at + rb]);
-    }
-}
-
-/// Copies one record (`dst` and `src` as long) as 16-byte pieces, the last one overlapping the
-/// one before: a record's length is known only at run time, and a `memcpy` call for each few
-/// dozen bytes is mostly the call.
-#[inline(always)]
-fn copy_record(dst: &mut [u8], src: &[u8]) {
-    const W: usize = 16;
-    let n = src.len();
-    if n < W || dst.len() != n {
-        return dst.copy_from_slice(src);
-    }
-    let mut at = 0;
-    while at + W <= n {
-        copy_piece::<W>(&mut dst[at..], &src[at..]);
-        at += W;
-    }
-    if at < n {
-        copy_piece::<W>(&mut dst[n - W..], &src[n - W..]);
-    }
-}
-
-/// Copies the first `W` bytes of `src` (at least that long) over those of `dst`.
-#[inline(always)]
-fn copy_piece<const W: usize>(dst: &mut [u8], src: &[u8]) {
-    if let (Some(d), Some(s)) = (dst.first_chunk_mut::<W>(), src.first_chunk::<W>()) {
-        *d = *s;
+        o.copy_from_slice(&records[at..at + rb]);
     }
 }
 
