@@ -319,22 +319,37 @@ pub(crate) fn release_second_arrays() {
 
 /// [`sort_buckets`] of every bucket, with `tmp` (as long as `pairs`) as the second array.
 pub(crate) fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Buckets) {
+    for_each_bucket(pairs, tmp, buckets, |_, s, t| {
+        if s.len() > 1 {
+            sort_bucket(s, t)
+        }
+    });
+}
+
+/// Runs `f(j, a_j, b_j)` on bucket `j`'s slices of `a` and of `b` (as long as `a`), in
+/// parallel; empty buckets are left out. A group's or a large bucket's buckets hold from none to many
+/// thousands of pairs: the larger ones are each a task of their own, as in `sort_buckets_at`.
+fn for_each_bucket(
+    a: &mut [Pair],
+    b: &mut [Pair],
+    buckets: &Buckets,
+    f: impl Fn(usize, &mut [Pair], &mut [Pair]) + Sync,
+) {
     let all = 0..buckets.len();
-    // A group's or a large bucket's buckets hold from none to many thousands of pairs: the
-    // larger ones are each a task of their own, as in `sort_buckets_at`.
-    let (large, small): (Vec<_>, Vec<_>) = bucket_slices(pairs, buckets, all.clone())
+    let (large, small): (Vec<_>, Vec<_>) = bucket_slices(a, buckets, all.clone())
         .into_iter()
-        .zip(bucket_slices(tmp, buckets, all))
-        .filter(|(s, _)| s.len() > 1)
-        .partition(|(s, _)| s.len() > PARALLEL / 8);
+        .zip(bucket_slices(b, buckets, all))
+        .enumerate()
+        .filter(|(_, (s, _))| !s.is_empty())
+        .partition(|(_, (s, _))| s.len() > PARALLEL / 8);
     rayon::join(
         || {
             large
                 .into_par_iter()
                 .with_max_len(1)
-                .for_each(|(s, t)| sort_bucket(s, t))
+                .for_each(|(j, (s, t))| f(j, s, t))
         },
-        || small.into_par_iter().for_each(|(s, t)| sort_bucket(s, t)),
+        || small.into_par_iter().for_each(|(j, (s, t))| f(j, s, t)),
     );
 }
 
@@ -364,9 +379,9 @@ const LARGE: usize = 1 << 20;
 const PARALLEL: usize = 1 << 15;
 
 /// Sorts one bucket: up to [`PARALLEL`] pairs as packed keys ([`sort_packed`]), a larger one
-/// (or one whose keys do not pack) by radix passes on its own varying bits (at most 11 at a
-/// time, ~64 pairs a sub-bucket) first. Buckets come out larger than planned where keys cluster
-/// below the sample's resolution.
+/// (or one whose keys do not pack) by radix passes on its own varying bits (at most 13 at a
+/// time) first. Buckets come out larger than planned where keys cluster below the sample's
+/// resolution.
 fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
     let n = s.len();
     if n < 2 {
@@ -380,10 +395,9 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         // SAFETY: `tmp` holds n pairs, borrowed mutably here only; the pass's buckets are
         // below `count` for every key of `s`.
         let starts = unsafe { scatter_by(s, &dst, count, |k| ((k >> shift) - base) as usize) };
-        s.par_chunks_mut(SMALL)
-            .zip(tmp.par_chunks(SMALL))
-            .for_each(|(a, b)| a.copy_from_slice(b));
-        return sort_buckets_in(s, tmp, &Buckets { starts });
+        return for_each_bucket(tmp, s, &Buckets { starts }, |j, from, to| {
+            sort_into(from, to, (base + j as u64) << shift, shift)
+        });
     }
     let (min, max) = s
         .iter()
@@ -404,7 +418,11 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         // Pairs are unique, so the unstable sort of (key, index) gives the one order.
         return s.sort_unstable();
     }
-    let bits = varying.min((n / 64).ilog2().clamp(1, 11));
+    // Points on a surface fill about 2^(2b/3) of a bucket's 2^b sub-cells: three bits more
+    // than ~64 pairs a sub-bucket would need leave a few hundred a sub-bucket there
+    // (`sort_time` at 100 M on dev, buckets of 48 K pairs: 1.22 and 1.29 s against 1.51 and
+    // 1.56, two runs' means).
+    let bits = varying.min(((n / 64).ilog2() + 3).clamp(1, 13));
     let shift = varying - bits;
     let base = min >> shift;
     let mut starts = vec![0usize; ((max >> shift) - base + 2) as usize];
@@ -420,15 +438,36 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         tmp[at[b]] = *p;
         at[b] += 1;
     }
-    s.copy_from_slice(tmp);
+    // Each sub-bucket is sorted from `tmp` back into its place in `s`: no copy back first.
+    let sub = |j: usize, from: &mut [Pair], to: &mut [Pair]| {
+        sort_into(from, to, (base + j as u64) << shift, shift)
+    };
     if n > PARALLEL {
         // One thread sorting a bucket of a million pairs while the others had nothing left
         // to do stalled the in-memory writing stage for up to 0.1 s at a time.
-        return sort_buckets_in(s, tmp, &Buckets { starts });
+        return for_each_bucket(tmp, s, &Buckets { starts }, sub);
     }
-    for w in starts.windows(2) {
-        sort_bucket(&mut s[w[0]..w[1]], &mut tmp[w[0]..w[1]]);
+    for (j, w) in starts.windows(2).enumerate() {
+        sub(j, &mut tmp[w[0]..w[1]], &mut s[w[0]..w[1]]);
     }
+}
+
+/// Sorts the pairs of `from`, whose keys lie in `lo..lo + 2^shift` (a sub-bucket), into `to`
+/// (as long), leaving `from` as scratch: packed keys where they pack, else copied over and
+/// sorted by [`sort_bucket`].
+fn sort_into(from: &mut [Pair], to: &mut [Pair], lo: u64, shift: u32) {
+    let n = from.len();
+    if (2..=PARALLEL).contains(&n) {
+        // The sub-bucket's span, not its keys' own: no pass to find them.
+        if let Some(place_bits) = packing(n, (1u64 << shift) - 1) {
+            return PACKED.with_borrow_mut(|packed| {
+                packed.resize(n, 0);
+                sort_packed_into(from, to, packed, lo, place_bits);
+            });
+        }
+    }
+    to.copy_from_slice(from);
+    sort_bucket(to, from);
 }
 
 thread_local! {
@@ -447,23 +486,29 @@ fn packing(n: usize, span: u64) -> Option<u32> {
 /// pair of its key's offset above its place: plain integers sort without unpredictable
 /// branches and move two thirds of a pair's bytes; a bucket of a few thousand pairs sorted so
 /// took ~20 % less time than radix passes down to leaves of ~64 (`sort_time`, dev). `copy`
-/// is as long as `s`. Equal keys come out in place order, and get index order after.
+/// is as long as `s`.
 fn sort_packed(s: &mut [Pair], copy: &mut [Pair], packed: &mut [u64], min: u64, place_bits: u32) {
-    for (j, (q, p)) in packed.iter_mut().zip(s.iter()).enumerate() {
+    copy.copy_from_slice(s);
+    sort_packed_into(copy, s, packed, min, place_bits);
+}
+
+/// [`sort_packed`] of `from` into `to` (as long). Equal keys come out in place order, and get
+/// index order after.
+fn sort_packed_into(from: &[Pair], to: &mut [Pair], packed: &mut [u64], min: u64, place_bits: u32) {
+    for (j, (q, p)) in packed.iter_mut().zip(from.iter()).enumerate() {
         *q = (p.0 - min) << place_bits | j as u64;
     }
     packed.sort_unstable();
-    copy.copy_from_slice(s);
     let place = (1u64 << place_bits) - 1;
-    for (p, q) in s.iter_mut().zip(packed.iter()) {
-        *p = copy[(*q & place) as usize];
+    for (p, q) in to.iter_mut().zip(packed.iter()) {
+        *p = from[(*q & place) as usize];
     }
     // Runs of equal keys (points given twice) in index order.
     let mut i = 0;
-    while i < s.len() {
-        let run = s[i..].iter().take_while(|p| p.0 == s[i].0).count();
+    while i < to.len() {
+        let run = to[i..].iter().take_while(|p| p.0 == to[i].0).count();
         if run > 1 {
-            s[i..i + run].sort_unstable_by_key(|p| p.1);
+            to[i..i + run].sort_unstable_by_key(|p| p.1);
         }
         i += run;
     }
@@ -557,6 +602,13 @@ mod tests {
         check((0..n).map(|i| Pair(rng.below(5), i as u32)).collect());
         check((0..n).map(|i| Pair(42, i as u32)).collect());
         check((0..1000).map(|i| Pair(rng.next_u64(), i as u32)).collect());
+        // Keys spanning all 64 bits but nearly all in the first sub-bucket, which does not
+        // pack at its sub-bucket's span and is sorted on its own keys' span instead.
+        check(
+            (0..300)
+                .map(|i| Pair(if i == 7 { u64::MAX } else { rng.below(1 << 20) }, i))
+                .collect(),
+        );
         check(Vec::new());
         // Pairs out of index order, and a far outlier that leaves almost every pair in one
         // top bucket (split again by a parallel pass).
@@ -610,19 +662,25 @@ mod tests {
         assert_eq!(buckets.covering(pairs.len()), buckets.len());
     }
 
-    /// Sort time of a spilled run's worth of surface points (5 M, a terrain seen from above), the
-    /// radix pass and the buckets apart, checked against a comparison sort:
+    /// Sort time of a spilled run's worth of surface points (5 M, a terrain seen from above;
+    /// `SORT_TIME_POINTS` others), the radix pass and the buckets apart, checked against a
+    /// comparison sort:
     /// `cargo test --release -p pointlet-store --lib sort_time -- --ignored --nocapture`.
     #[test]
     #[ignore = "a timing, not a check"]
     fn sort_time_of_surface_points() {
+        let n: u32 = std::env::var("SORT_TIME_POINTS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(5_000_000);
         let grid = pointlet_core::codes::KeyGrid::new(&pointlet_core::Aabb {
             min: [0.0; 3],
             max: [1000.0, 1000.0, 100.0],
         });
-        let mut rng = SplitMix64::new(5);
-        let pairs: Vec<Pair> = (0..5_000_000u32)
+        let pairs: Vec<Pair> = (0..n)
+            .into_par_iter()
             .map(|i| {
+                let mut rng = SplitMix64::new(5 ^ u64::from(i) << 20);
                 let (x, y) = (rng.below(1 << 20) as f64, rng.below(1 << 20) as f64);
                 let (x, y) = (x / 1048.576, y / 1048.576);
                 let z = 50.0 + 20.0 * (x / 90.0).sin() * (y / 70.0).cos();
@@ -631,7 +689,7 @@ mod tests {
             .collect();
         let mut scratch = Vec::new();
         let mut want = pairs.clone();
-        want.sort_unstable();
+        want.par_sort_unstable();
         for round in 0..5 {
             let mut p = pairs.clone();
             let t = std::time::Instant::now();
@@ -640,10 +698,13 @@ mod tests {
             scratch.resize(p.len(), Pair::default());
             sort_buckets_in(&mut p, &mut scratch, &buckets);
             let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+            let sizes = buckets.starts.windows(2).map(|w| w[1] - w[0]);
+            let over = sizes.filter(|&s| s > PARALLEL).count();
             eprintln!(
-                "round {round}: partition {:.1} ms, buckets {:.1} ms",
+                "round {round}: partition {:.1} ms, buckets {:.1} ms ({} buckets, {over} over {PARALLEL} pairs)",
                 ms(parted),
-                ms(t.elapsed() - parted)
+                ms(t.elapsed() - parted),
+                buckets.len(),
             );
             assert!(p == want);
         }
