@@ -90,7 +90,9 @@ pub trait PartedSource: Sync {
     /// `q` and `row` has every column it has (a LAS or LAZ file of that scale and offset): each
     /// row's position is the stored integers (no round trip through f64), its other columns
     /// what [`decode_part`] gives, zero where the part lacks a column of `row`. `Ok(false)`,
-    /// with nothing written, for any other quantization, layout or source.
+    /// with nothing written, for any other quantization, layout or source. Each stretch of
+    /// rows goes to `done` (the index of its first row, its bytes) as soon as it is filled,
+    /// while still in the cache; together the stretches cover `rows` once, in order.
     ///
     /// [`decode_part`]: Self::decode_part
     fn decode_part_rows(
@@ -100,8 +102,9 @@ pub trait PartedSource: Sync {
         row: &RowLayout,
         rows: &mut [u8],
         scratch: &mut Vec<u8>,
+        done: &mut dyn FnMut(usize, &[u8]),
     ) -> Result<bool, PartError> {
-        let _ = (i, q, row, rows, scratch);
+        let _ = (i, q, row, rows, scratch, done);
         Ok(false)
     }
 

@@ -149,14 +149,27 @@ fn rows_hold_the_files_integers_and_the_columns_decode_part_gives() {
                     }
                     let mut rows2 = vec![0u8; want.len() * row2.len];
                     let taken = parts
-                        .decode_part_rows(i, &q2, &row2, &mut rows2, &mut scratch)
+                        .decode_part_rows(i, &q2, &row2, &mut rows2, &mut scratch, &mut |_, _| {
+                            panic!("{why}: rows handed over")
+                        })
                         .expect("decoded");
                     assert!(!taken, "{}: {why} was taken", path.display());
                 }
+                // The stretches handed over as they were filled: in order, covering every row.
+                let mut stretches = Vec::new();
                 let taken = parts
-                    .decode_part_rows(i, &q, &row, &mut rows, &mut scratch)
+                    .decode_part_rows(i, &q, &row, &mut rows, &mut scratch, &mut |at, r| {
+                        stretches.push((at, r.to_vec()))
+                    })
                     .expect("decoded");
                 assert!(taken, "{}: part {i} not decoded into rows", path.display());
+                let mut next = 0;
+                for (at, r) in &stretches {
+                    assert_eq!(*at, next, "{}: part {i} stretches", path.display());
+                    assert!(r[..] == rows[at * row.len..][..r.len()]);
+                    next += r.len() / row.len;
+                }
+                assert_eq!(next, want.len(), "{}: part {i} stretches", path.display());
                 let quantized: Vec<[i32; 3]> = want
                     .xyz
                     .iter()
@@ -174,7 +187,7 @@ fn rows_hold_the_files_integers_and_the_columns_decode_part_gives() {
             let row = RowLayout::new(&layout);
             let mut short = vec![0u8; (want.len() - 1) * row.len];
             assert!(parts
-                .decode_part_rows(i, &q, &row, &mut short, &mut scratch)
+                .decode_part_rows(i, &q, &row, &mut short, &mut scratch, &mut |_, _| {})
                 .is_err());
         }
     }

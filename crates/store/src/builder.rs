@@ -129,6 +129,14 @@ type RawBounds = ([i32; 3], [i32; 3]);
 /// A part decoded into the run: its raw bounds, and its cells where it was grouped by bucket.
 type DecodedPart = (RawBounds, Option<Vec<Cell>>);
 
+/// The bounds of both `a` and `b`.
+fn widen(a: RawBounds, b: RawBounds) -> RawBounds {
+    (
+        std::array::from_fn(|i| a.0[i].min(b.0[i])),
+        std::array::from_fn(|i| a.1[i].max(b.1[i])),
+    )
+}
+
 /// Points per parallel task when quantizing and keying a batch.
 const KEY_TASK: usize = 1 << 14;
 /// Stretches of buckets the in-memory writing stage sorts, one while the previous is written,
@@ -474,11 +482,29 @@ impl StoreBuilder {
                     // Parts that store positions as integers of the store's quantization decode
                     // straight into their rows: no f64 round trip, no columns in between.
                     let seq = pushed + (at - n0) as u64;
+                    // Each stretch of rows is keyed as soon as it is decoded, while in the cache.
+                    let (mut bounds, mut keyed) = (([i32::MAX; 3], [i32::MIN; 3]), 0);
+                    let mut key_stretch = |first: usize, rows: &[u8]| {
+                        let n = rows.len() / rl.len;
+                        if let Some(pairs) = pairs.get_mut(first..first + n) {
+                            let b = key_rows(rows, q, grid, rl.len, at + first, pairs);
+                            (bounds, keyed) = (widen(bounds, b), keyed + n);
+                        }
+                    };
                     let bounds = if source
-                        .decode_part_rows(part, &q, &rl.row, recs, scratch)
+                        .decode_part_rows(part, &q, &rl.row, recs, scratch, &mut key_stretch)
                         .map_err(StoreError::Input)?
                     {
-                        key_rows(recs, q, grid, rl.len, at, pairs)
+                        if keyed != pairs.len() {
+                            return Err(StoreError::build(
+                                output,
+                                format!(
+                                    "internal error: part {part} handed over {keyed} rows of {}",
+                                    pairs.len()
+                                ),
+                            ));
+                        }
+                        bounds
                     } else {
                         source
                             .decode_part(part, batch, scratch)

@@ -466,6 +466,7 @@ impl pointlet_core::PartedSource for StoredParts {
         row: &pointlet_core::rows::RowLayout,
         rows: &mut [u8],
         scratch: &mut Vec<u8>,
+        done: &mut dyn FnMut(usize, &[u8]),
     ) -> Result<bool, pointlet_core::PartError> {
         if *q != Q {
             return Ok(false);
@@ -477,6 +478,7 @@ impl pointlet_core::PartedSource for StoredParts {
             positions.push(q.quantize(*p)?);
         }
         row.pack(&batch, 0, &positions, rows);
+        done(0, rows);
         Ok(true)
     }
 }

@@ -271,17 +271,61 @@ impl PartedSource for LazReader {
         row: &RowLayout,
         rows: &mut [u8],
         scratch: &mut Vec<u8>,
+        done: &mut dyn FnMut(usize, &[u8]),
     ) -> Result<bool, PartError> {
         if !self.decoder.fits_rows(q, row) {
             return Ok(false);
         }
-        let records = self.decompress_part(i, scratch)?;
-        self.decoder
-            .decode_rows(records, row, rows)
-            .map_err(|e| IoError::invalid(&self.path, format!("LAZ chunk {i}: {e}")))?;
+        let bad_rows = |e: String| IoError::invalid(&self.path, format!("LAZ chunk {i}: {e}"));
+        let Some(items) = self.codec.ours else {
+            let records = self.decompress_part(i, scratch)?;
+            self.decoder
+                .decode_rows_by_block(records, row, rows, done)
+                .map_err(bad_rows)?;
+            return Ok(true);
+        };
+        if let Some(&n) = self.part_sizes.get(i) {
+            if n as usize * row.len != rows.len() {
+                return Err(Box::new(bad_rows(format!(
+                    "{} rows for its {n} points",
+                    rows.len() / row.len.max(1)
+                ))));
+            }
+        }
+        // Our decoder hands over a block of records at a time: each becomes rows while it is
+        // in the cache, and the rows go to `done` while they are.
+        let (c, compressed, block) = self.read_chunk(i, scratch, ROW_BLOCK * items.record_len())?;
+        let mut unfit = None;
+        let decompressed = self.codec.decompress_ours(items, |d| {
+            d.decompress_blocks(compressed, c.points as usize, block, |at, records| {
+                let n = records.len() / items.record_len();
+                let out = rows
+                    .get_mut(at * row.len..(at + n) * row.len)
+                    .ok_or_else(|| format!("too few rows for its {} points", c.points))
+                    .and_then(|out| self.decoder.decode_rows(records, row, out).map(|()| out));
+                match out {
+                    Ok(out) => {
+                        done(at, out);
+                        Ok(())
+                    }
+                    Err(e) => {
+                        unfit = Some(e);
+                        Err("its rows do not fit".into())
+                    }
+                }
+            })
+        });
+        if let Some(e) = unfit {
+            return Err(Box::new(bad_rows(e)));
+        }
+        decompressed.map_err(|m| Box::new(self.codec.damaged(&self.path, i, c, m)))?;
         Ok(true)
     }
 }
+
+/// Records of a LAZ chunk decompressed, and rows made of them, at a time (70 KiB of both with
+/// time and colour): they stay in the L2 cache until used.
+const ROW_BLOCK: usize = 1024;
 
 impl LazReader {
     /// Reads and decompresses chunk `i` in `scratch`; its records.
@@ -290,6 +334,24 @@ impl LazReader {
         i: usize,
         scratch: &'s mut Vec<u8>,
     ) -> Result<&'s [u8], PartError> {
+        let out_len = self
+            .chunks
+            .get(i)
+            .map_or(0, |c| (c.points * self.codec.record_len) as usize);
+        let (c, compressed, records) = self.read_chunk(i, scratch, out_len)?;
+        self.codec
+            .decompress(&self.path, i, c, compressed, records)?;
+        Ok(records)
+    }
+
+    /// Reads chunk `i`'s compressed bytes into `scratch`, followed by `room` bytes more; the
+    /// chunk, its bytes and the room.
+    fn read_chunk<'s>(
+        &self,
+        i: usize,
+        scratch: &'s mut Vec<u8>,
+        room: usize,
+    ) -> Result<(Chunk, &'s mut [u8], &'s mut [u8]), PartError> {
         let Some(&c) = self.chunks.get(i) else {
             return Err(Box::new(IoError::invalid(
                 &self.path,
@@ -299,13 +361,10 @@ impl LazReader {
                 ),
             )));
         };
-        // Both sizes were bounded when the chunk table was checked at open.
-        let (in_len, out_len) = (
-            c.bytes as usize,
-            (c.points * self.codec.record_len) as usize,
-        );
-        scratch.resize(in_len + out_len, 0);
-        let (compressed, records) = scratch.split_at_mut(in_len);
+        // The chunk's size was bounded when the chunk table was checked at open.
+        let in_len = c.bytes as usize;
+        scratch.resize(in_len + room, 0);
+        let (compressed, room) = scratch.split_at_mut(in_len);
         read_exact_at(&self.file, compressed, c.offset).map_err(|e| {
             let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
                 "the file ends inside it".to_string()
@@ -320,9 +379,7 @@ impl LazReader {
                 ),
             )
         })?;
-        self.codec
-            .decompress(&self.path, i, c, compressed, records)?;
-        Ok(records)
+        Ok((c, compressed, room))
     }
 }
 
@@ -346,18 +403,21 @@ impl ChunkCodec {
         out: &mut [u8],
     ) -> Result<(), IoError> {
         let decompressed = match self.ours {
-            Some(items) => self.decompress_ours(items, compressed, out),
+            Some(items) => self.decompress_ours(items, |d| d.decompress(compressed, out)),
             None => self.decompress_laz_crate(c, compressed, out),
         };
-        decompressed.map_err(|m| {
-            IoError::invalid(
-                path,
-                format!(
-                    "LAZ chunk {index} (at byte {}) cannot be decompressed ({m}): the file is damaged or holds fewer points than its header claims ({})",
-                    c.offset, self.total
-                ),
-            )
-        })
+        decompressed.map_err(|m| self.damaged(path, index, c, m))
+    }
+
+    /// The error for chunk `index` (`c`) that could not be decompressed, `m` saying why.
+    fn damaged(&self, path: &Path, index: usize, c: Chunk, m: String) -> IoError {
+        IoError::invalid(
+            path,
+            format!(
+                "LAZ chunk {index} (at byte {}) cannot be decompressed ({m}): the file is damaged or holds fewer points than its header claims ({})",
+                c.offset, self.total
+            ),
+        )
     }
 
     /// Decompresses a chunk with the `laz` crate, its panics caught (see [`guarded`]).
@@ -380,12 +440,12 @@ impl ChunkCodec {
             .map_err(|e| e.to_string())
     }
 
-    /// Decompresses a chunk with one of our decoders, reusing an idle one when there is one.
+    /// Runs `decompress` with one of our decoders for `items`, reusing an idle one when there
+    /// is one.
     fn decompress_ours(
         &self,
         items: Items,
-        compressed: &[u8],
-        out: &mut [u8],
+        decompress: impl FnOnce(&mut ChunkDecoder) -> Result<(), String>,
     ) -> Result<(), String> {
         let idle = || IDLE_DECODERS.lock().unwrap_or_else(|p| p.into_inner());
         let reused = {
@@ -394,7 +454,7 @@ impl ChunkCodec {
             found.map(|i| idle.swap_remove(i))
         };
         let mut decoder = reused.unwrap_or_else(|| Box::new(ChunkDecoder::new(items)));
-        let result = decoder.decompress(compressed, out);
+        let result = decompress(&mut decoder);
         let mut idle = idle();
         if idle.len() == MAX_IDLE_DECODERS {
             // Keep the most recent ones: drop the oldest.

@@ -239,13 +239,14 @@ impl PartedSource for LasReader {
         row: &RowLayout,
         rows: &mut [u8],
         scratch: &mut Vec<u8>,
+        done: &mut dyn FnMut(usize, &[u8]),
     ) -> Result<bool, PartError> {
         if !self.decoder.fits_rows(q, row) {
             return Ok(false);
         }
         self.read_part(i, scratch)?;
         self.decoder
-            .decode_rows(scratch, row, rows)
+            .decode_rows_by_block(scratch, row, rows, done)
             .map_err(|e| IoError::invalid(&self.path, format!("part {i}: {e}")))?;
         Ok(true)
     }

@@ -138,14 +138,7 @@ impl Decoder {
     /// of the decoder's quantization, the other columns as [`Self::decode`] gives them, zero
     /// where the records lack a column of `row`.
     pub fn decode_rows(&self, raw: &[u8], row: &RowLayout, rows: &mut [u8]) -> Result<(), String> {
-        let n = raw.len() / self.record_len;
-        if n * row.len != rows.len() {
-            return Err(format!(
-                "{n} records for {} rows of {} bytes",
-                rows.len() / row.len.max(1),
-                row.len
-            ));
-        }
+        self.check_rows(raw, row, rows)?;
         let recs = raw.chunks_exact(self.record_len);
         if self.format.extended {
             for (r, o) in recs.zip(rows.chunks_exact_mut(row.len)) {
@@ -157,6 +150,39 @@ impl Decoder {
             }
         }
         row.zero_absent(&self.layout(), rows);
+        Ok(())
+    }
+
+    /// Fails unless `rows` holds one row of `row` for each whole record of `raw`.
+    fn check_rows(&self, raw: &[u8], row: &RowLayout, rows: &[u8]) -> Result<(), String> {
+        let n = raw.len() / self.record_len;
+        if n * row.len != rows.len() {
+            return Err(format!(
+                "{n} records for {} rows of {} bytes",
+                rows.len() / row.len.max(1),
+                row.len
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`Self::decode_rows`] a block of records at a time, handing each block's rows to
+    /// `done` (the index of its first row, its bytes) while they are still in the cache.
+    pub fn decode_rows_by_block(
+        &self,
+        raw: &[u8],
+        row: &RowLayout,
+        rows: &mut [u8],
+        done: &mut dyn FnMut(usize, &[u8]),
+    ) -> Result<(), String> {
+        self.check_rows(raw, row, rows)?;
+        let blocks = raw
+            .chunks(BLOCK * self.record_len)
+            .zip(rows.chunks_mut(BLOCK * row.len.max(1)));
+        for (b, (r, o)) in blocks.enumerate() {
+            self.decode_rows(r, row, o)?;
+            done(b * BLOCK, o);
+        }
         Ok(())
     }
 

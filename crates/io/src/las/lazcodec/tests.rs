@@ -547,6 +547,54 @@ fn cut_chunks_are_errors() {
 }
 
 #[test]
+fn chunks_decompressed_a_block_at_a_time_are_the_same_records() {
+    let (vlr, chunks, records) = sample_chunks();
+    let items = Items::supported(vlr.items()).expect("supported");
+    let len = items.record_len();
+    let mut ours = ChunkDecoder::new(items);
+    // One record, a few, a block's worth, the whole chunk of 400 and more.
+    for per_block in [1, 7, 64, 399, 400, 1000] {
+        let mut got = Vec::new();
+        for (data, points) in &chunks {
+            let mut block = vec![0xAB; per_block * len + 3];
+            let mut next = 0;
+            ours.decompress_blocks(data, *points as usize, &mut block, |at, recs| {
+                assert_eq!(at, next, "blocks of {per_block} come in order");
+                assert!(recs.len() <= per_block * len && recs.len().is_multiple_of(len));
+                next += recs.len() / len;
+                got.extend_from_slice(recs);
+                Ok(())
+            })
+            .unwrap_or_else(|e| panic!("blocks of {per_block}: {e}"));
+            assert_eq!(next, *points as usize);
+        }
+        assert!(got == records, "blocks of {per_block}");
+        // A chunk cut short fails in blocks too, and an error of the caller's stops it.
+        let (data, points) = &chunks[0];
+        let mut block = vec![0; per_block * len];
+        let cut = ours.decompress_blocks(
+            &data[..data.len() / 2],
+            *points as usize,
+            &mut block,
+            |_, _| Ok(()),
+        );
+        assert!(cut.is_err(), "blocks of {per_block}: a cut chunk decoded");
+        let mut calls = 0;
+        let stopped = ours.decompress_blocks(data, *points as usize, &mut block, |_, _| {
+            calls += 1;
+            Err("stop".into())
+        });
+        assert_eq!((stopped, calls), (Err("stop".to_string()), 1));
+    }
+    // A block too small for one record is an error, not a loop.
+    let (data, points) = &chunks[0];
+    let mut small = vec![0; len - 1];
+    assert!(ours
+        .decompress_blocks(data, *points as usize, &mut small, |_, _| Ok(()))
+        .is_err());
+}
+
+#[test]
 fn random_and_flipped_bytes_never_panic() {
     let (vlr, chunks, _) = sample_chunks();
     let items = Items::supported(vlr.items()).expect("supported");
