@@ -327,8 +327,9 @@ pub(crate) fn sort_buckets_in(pairs: &mut [Pair], tmp: &mut [Pair], buckets: &Bu
 }
 
 /// Runs `f(j, a_j, b_j)` on bucket `j`'s slices of `a` and of `b` (as long as `a`), in
-/// parallel; empty buckets are left out. A group's or a large bucket's buckets hold from none to many
-/// thousands of pairs: the larger ones are each a task of their own, as in `sort_buckets_at`.
+/// parallel; empty buckets are left out. A group's or a large bucket's buckets hold from none
+/// to many thousands of pairs: the larger ones are each a task of their own, as in
+/// `sort_buckets_at`.
 fn for_each_bucket(
     a: &mut [Pair],
     b: &mut [Pair],
@@ -395,9 +396,7 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         // SAFETY: `tmp` holds n pairs, borrowed mutably here only; the pass's buckets are
         // below `count` for every key of `s`.
         let starts = unsafe { scatter_by(s, &dst, count, |k| ((k >> shift) - base) as usize) };
-        return for_each_bucket(tmp, s, &Buckets { starts }, |j, from, to| {
-            sort_into(from, to, (base + j as u64) << shift, shift)
-        });
+        return sort_cells_into(tmp, s, starts, base, shift);
     }
     let (min, max) = s
         .iter()
@@ -439,17 +438,23 @@ fn sort_bucket(s: &mut [Pair], tmp: &mut [Pair]) {
         at[b] += 1;
     }
     // Each sub-bucket is sorted from `tmp` back into its place in `s`: no copy back first.
-    let sub = |j: usize, from: &mut [Pair], to: &mut [Pair]| {
-        sort_into(from, to, (base + j as u64) << shift, shift)
-    };
     if n > PARALLEL {
         // One thread sorting a bucket of a million pairs while the others had nothing left
         // to do stalled the in-memory writing stage for up to 0.1 s at a time.
-        return for_each_bucket(tmp, s, &Buckets { starts }, sub);
+        return sort_cells_into(tmp, s, starts, base, shift);
     }
     for (j, w) in starts.windows(2).enumerate() {
-        sub(j, &mut tmp[w[0]..w[1]], &mut s[w[0]..w[1]]);
+        let lo = (base + j as u64) << shift;
+        sort_into(&mut tmp[w[0]..w[1]], &mut s[w[0]..w[1]], lo, shift);
     }
+}
+
+/// Sorts the cells of a radix pass on bits from `shift` (cell `j` holds keys from
+/// `(base + j) << shift`, from `starts[j]` in `from`) into their places in `to`, in parallel.
+fn sort_cells_into(from: &mut [Pair], to: &mut [Pair], starts: Vec<usize>, base: u64, shift: u32) {
+    for_each_bucket(from, to, &Buckets { starts }, |j, from, to| {
+        sort_into(from, to, (base + j as u64) << shift, shift)
+    });
 }
 
 /// Sorts the pairs of `from`, whose keys lie in `lo..lo + 2^shift` (a sub-bucket), into `to`
