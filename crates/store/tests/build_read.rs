@@ -442,12 +442,17 @@ impl pointlet_core::PartedSource for Parts {
 }
 
 /// [`Parts`] that also decode straight into rows, positions as integers of `Q`, as LAS and LAZ
-/// files do.
-struct StoredParts(Parts);
+/// files do, handing them over `stretch` rows at a time; `drop_last` leaves a part's last
+/// stretch out (a broken source).
+struct StoredParts {
+    parts: Parts,
+    stretch: usize,
+    drop_last: bool,
+}
 
 impl pointlet_core::PartedSource for StoredParts {
     fn part_sizes(&self) -> &[u64] {
-        self.0.part_sizes()
+        self.parts.part_sizes()
     }
 
     fn decode_part(
@@ -456,7 +461,7 @@ impl pointlet_core::PartedSource for StoredParts {
         out: &mut pointlet_core::PointBatch,
         scratch: &mut Vec<u8>,
     ) -> Result<(), pointlet_core::PartError> {
-        self.0.decode_part(i, out, scratch)
+        self.parts.decode_part(i, out, scratch)
     }
 
     fn decode_part_rows(
@@ -472,13 +477,17 @@ impl pointlet_core::PartedSource for StoredParts {
             return Ok(false);
         }
         let mut batch = pointlet_core::PointBatch::default();
-        self.0.decode_part(i, &mut batch, scratch)?;
+        self.parts.decode_part(i, &mut batch, scratch)?;
         let mut positions = Vec::new();
         for p in &batch.xyz {
             positions.push(q.quantize(*p)?);
         }
         row.pack(&batch, 0, &positions, rows);
-        done(0, rows);
+        let stretches = rows.chunks(self.stretch * row.len).collect::<Vec<_>>();
+        let handed = stretches.len() - usize::from(self.drop_last);
+        for (k, r) in stretches.into_iter().take(handed).enumerate() {
+            done(k * self.stretch, r);
+        }
         Ok(true)
     }
 }
@@ -514,16 +523,36 @@ fn parts_and_thread_counts_give_the_same_store_in_memory_and_out_of_core() {
         &input,
     );
     let want = std::fs::read(&reference).unwrap();
-    // Parts decoded straight into rows (positions as stored integers) give the same store.
-    let stored = StoredParts(Parts(parts.0.clone(), parts.1.clone()));
-    for budget in [1u64 << 30, 2 << 20] {
-        let out = dir.path().join(format!("stored-{budget}.pointlet"));
-        build_parts(&out, config(budget, 300, 5), &stored, n);
-        assert!(
-            std::fs::read(&out).unwrap() == want,
-            "parts as rows, budget {budget}: the store differs"
-        );
+    // Parts decoded straight into rows (positions as stored integers) give the same store,
+    // whether the rows are handed over whole or in stretches.
+    for stretch in [n, 777] {
+        let stored = StoredParts {
+            parts: Parts(parts.0.clone(), parts.1.clone()),
+            stretch,
+            drop_last: false,
+        };
+        for budget in [1u64 << 30, 2 << 20] {
+            let out = dir.path().join(format!("stored-{budget}.pointlet"));
+            build_parts(&out, config(budget, 300, 5), &stored, n);
+            assert!(
+                std::fs::read(&out).unwrap() == want,
+                "parts as rows in stretches of {stretch}, budget {budget}: the store differs"
+            );
+        }
     }
+    // A source that leaves rows out fails the build: no store made of rows never keyed.
+    let broken = StoredParts {
+        parts: Parts(parts.0.clone(), parts.1.clone()),
+        stretch: 777,
+        drop_last: true,
+    };
+    let out = dir.path().join("broken.pointlet");
+    let m = meta(RGB_GPS_EXTRA, n as u64);
+    let mut b = StoreBuilder::create(&out, config(1 << 30, 300, 5), &m, vec!["x".into()]).unwrap();
+    let e = b.push_parts(&broken).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("internal error") && e.contains("rows"), "{e}");
+    drop(b);
+    assert!(!out.exists(), "a failed build left {}", out.display());
     for threads in [1, 3, 8] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
