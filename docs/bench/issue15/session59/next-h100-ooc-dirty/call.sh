@@ -4,7 +4,9 @@
 # …-v1272 host out of core took 1.35× in memory (`3-h100-ooc-profile`), at 200 M 1.69×
 # (`2-h100-acceptance`): runs (~9 GB) and store (~7 GB) dirty at once pass the background
 # writeback threshold (`vm.dirty_background_ratio` 10 % of ~125 GiB) only at 200 M, and a run's
-# hole punches (`runs::release_records`) then wait for pages under writeback. Out-of-core
+# hole punches (`runs::release_records`) then wait for pages under writeback (dev at 80 M,
+# `dev-ooc-dirty/`: raising the thresholds took out of core from ~13.8 to ~8.2 s; switching
+# the punches off did not help, so the writeback itself is what costs). Out-of-core
 # converts at the default thresholds and with them raised (background 50 %, 80 %), alternated,
 # /proc/vmstat's dirty and writeback pages sampled every 50 ms; in-memory converts beside.
 # Carry `.dev59b` (pointlet.xz: abca106's code; the Debian `time` .deb). ~3 min.
