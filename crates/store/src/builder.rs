@@ -129,6 +129,9 @@ type RawBounds = ([i32; 3], [i32; 3]);
 /// A part decoded into the run: its raw bounds, and its cells where it was grouped by bucket.
 type DecodedPart = (RawBounds, Option<Vec<Cell>>);
 
+/// Bounds of no point: any point's widen them to its own.
+const NO_BOUNDS: RawBounds = ([i32::MAX; 3], [i32::MIN; 3]);
+
 /// The bounds of both `a` and `b`.
 fn widen(a: RawBounds, b: RawBounds) -> RawBounds {
     (
@@ -353,8 +356,8 @@ impl StoreBuilder {
             runs: Vec::new(),
             pushed: 0,
             started: std::time::Instant::now(),
-            raw_min: [i32::MAX; 3],
-            raw_max: [i32::MIN; 3],
+            raw_min: NO_BOUNDS.0,
+            raw_max: NO_BOUNDS.1,
             failed: false,
             write_map: WriteMapUse::HugePages,
             spill_waited: std::time::Duration::ZERO,
@@ -483,7 +486,7 @@ impl StoreBuilder {
                     // straight into their rows: no f64 round trip, no columns in between.
                     let seq = pushed + (at - n0) as u64;
                     // Each stretch of rows is keyed as soon as it is decoded, while in the cache.
-                    let (mut bounds, mut keyed) = (([i32::MAX; 3], [i32::MIN; 3]), 0);
+                    let (mut bounds, mut keyed) = (NO_BOUNDS, 0);
                     let mut key_stretch = |first: usize, rows: &[u8]| {
                         let n = rows.len() / rl.len;
                         if let Some(pairs) = pairs.get_mut(first..first + n) {
@@ -549,11 +552,8 @@ impl StoreBuilder {
             self.run.records.set_len((n0 + total) * rb);
             self.run.pairs.set_len(n0 + total);
         }
-        for ((lo, hi), cells) in parts {
-            for a in 0..3 {
-                self.raw_min[a] = self.raw_min[a].min(lo[a]);
-                self.raw_max[a] = self.raw_max[a].max(hi[a]);
-            }
+        for (bounds, cells) in parts {
+            (self.raw_min, self.raw_max) = widen((self.raw_min, self.raw_max), bounds);
             match (self.run.cells.as_mut(), cells) {
                 (Some(run_cells), Some(cells)) => run_cells.extend(cells),
                 // A part left in input order: the run is scattered whole when spilled.
@@ -662,11 +662,8 @@ impl StoreBuilder {
             .collect();
         for r in results {
             match r {
-                Ok((lo, hi)) => {
-                    for a in 0..3 {
-                        self.raw_min[a] = self.raw_min[a].min(lo[a]);
-                        self.raw_max[a] = self.raw_max[a].max(hi[a]);
-                    }
+                Ok(bounds) => {
+                    (self.raw_min, self.raw_max) = widen((self.raw_min, self.raw_max), bounds);
                 }
                 Err((i, message)) => {
                     return Err(bad_point(
@@ -1118,7 +1115,7 @@ fn key_and_pack(
     recs: &mut [u8],
     pairs: &mut [Pair],
 ) -> KeyChunk {
-    let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
+    let mut bounds = NO_BOUNDS;
     let mut raw = [[0i32; 3]; BLOCK];
     for (b, (recs, pairs)) in recs
         .chunks_mut(BLOCK * rl.len)
@@ -1149,7 +1146,7 @@ pub(crate) fn key_rows(
     index: usize,
     pairs: &mut [Pair],
 ) -> RawBounds {
-    let mut bounds = ([i32::MAX; 3], [i32::MIN; 3]);
+    let mut bounds = NO_BOUNDS;
     let mut raw = [[0i32; 3]; BLOCK];
     for (b, (recs, pairs)) in recs
         .chunks(BLOCK * rb)
