@@ -202,8 +202,8 @@ pub struct StoreBuilder {
     runs: Vec<RunFile>,
     pushed: u64,
     started: std::time::Instant,
-    raw_min: [i32; 3],
-    raw_max: [i32; 3],
+    /// Bounds of the stored positions pushed so far.
+    raw_bounds: RawBounds,
     failed: bool,
     write_map: WriteMapUse,
     /// The time filling waited for a spilling thread.
@@ -356,8 +356,7 @@ impl StoreBuilder {
             runs: Vec::new(),
             pushed: 0,
             started: std::time::Instant::now(),
-            raw_min: NO_BOUNDS.0,
-            raw_max: NO_BOUNDS.1,
+            raw_bounds: NO_BOUNDS,
             failed: false,
             write_map: WriteMapUse::HugePages,
             spill_waited: std::time::Duration::ZERO,
@@ -553,7 +552,7 @@ impl StoreBuilder {
             self.run.pairs.set_len(n0 + total);
         }
         for (bounds, cells) in parts {
-            (self.raw_min, self.raw_max) = widen((self.raw_min, self.raw_max), bounds);
+            self.raw_bounds = widen(self.raw_bounds, bounds);
             match (self.run.cells.as_mut(), cells) {
                 (Some(run_cells), Some(cells)) => run_cells.extend(cells),
                 // A part left in input order: the run is scattered whole when spilled.
@@ -663,7 +662,7 @@ impl StoreBuilder {
         for r in results {
             match r {
                 Ok(bounds) => {
-                    (self.raw_min, self.raw_max) = widen((self.raw_min, self.raw_max), bounds);
+                    self.raw_bounds = widen(self.raw_bounds, bounds);
                 }
                 Err((i, message)) => {
                     return Err(bad_point(
@@ -761,8 +760,8 @@ impl StoreBuilder {
         let k = pointlet_size(n, self.target_pointlets);
         let pointlets = n.div_ceil(k);
         let bounds = Aabb {
-            min: self.quantization.dequantize(self.raw_min),
-            max: self.quantization.dequantize(self.raw_max),
+            min: self.quantization.dequantize(self.raw_bounds.0),
+            max: self.quantization.dequantize(self.raw_bounds.1),
         };
         if bounds.bounding_cube() != self.key_bounds.bounding_cube() {
             // The header bounds were wrong: keys over them would make pointlets too large.
