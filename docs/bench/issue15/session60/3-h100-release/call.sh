@@ -4,7 +4,7 @@
 # journal and is mounted with `discard`, so every hole punched in a run file
 # (`pio::release`) frees blocks and waits for the disk's discard (stack: fallocate →
 # ext4_punch_hole → ext4_free_blocks → blkdev_issue_discard → submit_bio_wait). The device's
-# root file system has the same mount options. Variants of HEAD with switches
+# root file system has the same mount options. Variants of ac85753 with switches
 # (`../x-switches.diff`, not committed): base; XBG=1 (the punches made by a thread of their
 # own, `runs::Releaser`, so that the loading threads do not wait for the discards);
 # XW=1 (runs through `write`, no reserved blocks: delayed allocation, so pages given back
