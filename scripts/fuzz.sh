@@ -31,6 +31,17 @@ for f in testdata/*.las testdata/*.laz; do
     if [ "$(stat -c %s "$f")" -le 70000 ]; then cp "$f" "$corpus/las_file/$name"; fi
 done
 
+# parted_file: the same files, and generated ones with more points than a decoding block
+# (1,024 LAZ records, 2,048 LAS records), so that the fuzzer meets the blocks' seams.
+seed parted_file
+cp "$corpus"/las_file/* "$corpus/parted_file/"
+for f in blocks.las:2100 blocks.laz:3000; do
+    if [ ! -e "$corpus/parted_file/${f%%:*}" ]; then
+        cargo run --quiet -p pointlet -- generate --points "${f##*:}" \
+            -o "$corpus/parted_file/${f%%:*}" 2>/dev/null
+    fi
+done
+
 # laz_chunk: a selector byte (0x13: format 3, 1 + 97 points claimed), then the first chunk of
 # simple.laz, 8 bytes after the point data offset (a u32 at header byte 96).
 seed laz_chunk

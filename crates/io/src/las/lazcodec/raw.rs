@@ -81,15 +81,16 @@ impl RawChunks {
 }
 
 /// For the fuzz target: the first byte picks an item set (format 0–3, 0–3 extra bytes) and
-/// how many points to claim; our decoder decompresses the rest. Decoders are kept per item
-/// set and thread, so the fuzzer also checks that nothing leaks from one chunk to the next.
-pub fn fuzz_chunk(data: &[u8]) -> Result<(), String> {
+/// how many points to claim; our decoder decompresses the rest `per_block` records at a time
+/// (as the conversion does) and returns the records. Decoders are kept per item set and
+/// thread, so the fuzzer also checks that nothing leaks from one chunk to the next.
+pub fn fuzz_chunk(data: &[u8], per_block: usize) -> Result<Vec<u8>, String> {
     thread_local! {
         static DECODERS: std::cell::RefCell<Vec<Option<Box<ChunkDecoder>>>> =
             std::cell::RefCell::new((0..16).map(|_| None).collect());
     }
     let Some((&pick, chunk)) = data.split_first() else {
-        return Ok(());
+        return Ok(Vec::new());
     };
     let items = Items {
         gps: pick & 1 != 0,
@@ -97,14 +98,20 @@ pub fn fuzz_chunk(data: &[u8]) -> Result<(), String> {
         extra: u16::from((pick >> 2) & 3),
     };
     let points = 1 + usize::from(pick >> 4) * 97;
-    let mut out = vec![0; points * items.record_len()];
+    let len = items.record_len();
+    let mut block = vec![0; per_block.clamp(1, points) * len];
+    let mut out = Vec::with_capacity(points * len);
     DECODERS.with(|d| {
         let mut d = d.borrow_mut();
-        match d.get_mut(usize::from(pick & 15)) {
-            Some(slot) => slot
-                .get_or_insert_with(|| Box::new(ChunkDecoder::new(items)))
-                .decompress(chunk, &mut out),
-            None => Err("no decoder slot".into()),
-        }
-    })
+        let slot = d.get_mut(usize::from(pick & 15)).ok_or("no decoder slot")?;
+        slot.get_or_insert_with(|| Box::new(ChunkDecoder::new(items)))
+            .decompress_blocks(chunk, points, &mut block, |at, recs| {
+                if at * len != out.len() {
+                    return Err(format!("a block for record {at} after {} bytes", out.len()));
+                }
+                out.extend_from_slice(recs);
+                Ok(())
+            })
+    })?;
+    Ok(out)
 }

@@ -681,15 +681,24 @@ fn symbol_speed() {
 #[test]
 fn the_fuzz_entry_decodes_real_chunks_and_survives_noise() {
     let (_, chunks) = chunks_of(&testdata("simple.laz")).expect("readable LAZ");
-    // Format 3, no extra bytes: 1 point, then 98 (of the chunk's 1065), twice each.
+    // Format 3, no extra bytes: 1 point, then 98 (of the chunk's 1065), twice each; whole
+    // and in blocks of 7 records, the same records.
     for pick in [0x03u8, 0x13, 0x03, 0x13] {
         let mut input = vec![pick];
         input.extend_from_slice(&chunks[0].0);
-        super::raw::fuzz_chunk(&input).expect("a real chunk decodes");
+        let whole = super::raw::fuzz_chunk(&input, usize::MAX).expect("a real chunk decodes");
+        assert_eq!(whole.len(), (1 + usize::from(pick >> 4) * 97) * 34);
+        let blocks = super::raw::fuzz_chunk(&input, 7).expect("a real chunk decodes");
+        assert!(whole == blocks, "pick {pick:#x}: blocks of 7 differ");
     }
     let mut rng = Rng(11);
     for len in [0usize, 1, 2, 30, 200, 3000] {
         let input: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
-        let _ = super::raw::fuzz_chunk(&input);
+        let whole = super::raw::fuzz_chunk(&input, usize::MAX);
+        assert_eq!(
+            whole,
+            super::raw::fuzz_chunk(&input, 7),
+            "{len} bytes of noise"
+        );
     }
 }
